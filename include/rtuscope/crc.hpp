@@ -1,0 +1,30 @@
+// CRC-16/MODBUS (poly 0x8005 reflected = 0xA001, init 0xFFFF, no final xor), sent low
+// byte first (Modbus over Serial Line v1.02, 2.5.1.2 and appendix B).
+#pragma once
+
+#include <cstdint>
+#include <span>
+
+namespace rtuscope {
+
+std::uint16_t crc16_modbus(std::span<const std::uint8_t> bytes);
+
+enum class CrcStatus : std::uint8_t {
+    none,     // not a frame (noise)
+    ok,       // last two bytes are the CRC, low byte first
+    bad,      // last two bytes are not the CRC of the rest
+    swapped,  // last two bytes are the CRC with high and low byte exchanged
+};
+
+struct CrcCheck {
+    CrcStatus status = CrcStatus::none;
+    std::uint16_t expected = 0;  // computed over all but the last two bytes
+    std::uint16_t received = 0;  // last two bytes read low byte first
+};
+
+// A frame of fewer than 3 bytes cannot carry a CRC and checks as bad.
+CrcCheck check_crc(std::span<const std::uint8_t> frame);
+
+const char* to_string(CrcStatus status);
+
+}  // namespace rtuscope

@@ -1,0 +1,40 @@
+// A diagnostic attached to a record. Every diagnostic has one stable dotted id, used
+// the same in every output (text, CSV, later JSONL), as Wireshark's expert info does.
+#pragma once
+
+#include <string>
+#include <vector>
+
+namespace rtuscope {
+
+struct Note {
+    const char* id = "";  // stable dotted id, e.g. "frame.crc_mismatch"; static storage
+    std::string text;     // one short human phrase, e.g. "CRC BAD (expected F6 4E, got B6 4E)"
+};
+
+using Notes = std::vector<Note>;
+
+// The ids in use. Adding one is fine; renaming one breaks users' filters.
+namespace note_id {
+// framer
+inline constexpr const char* crc_mismatch = "frame.crc_mismatch";
+inline constexpr const char* crc_swapped = "frame.crc_swapped";
+inline constexpr const char* truncated = "frame.truncated";
+inline constexpr const char* gap_inside = "frame.gap_inside";        // > t1.5 between two bytes
+inline constexpr const char* short_gap = "frame.short_gap";          // < t3.5 before the frame
+inline constexpr const char* split_by_length = "frame.split_by_length";  // not delimited by a gap
+inline constexpr const char* unknown_length = "frame.unknown_length";  // length found by CRC search
+inline constexpr const char* noise = "frame.noise";
+// transactions
+inline constexpr const char* no_answer = "txn.no_answer";
+inline constexpr const char* unsolicited = "txn.unsolicited";  // answer with no request
+inline constexpr const char* early_answer = "txn.early_answer";  // sooner than t3.5
+// PDU decoding
+inline constexpr const char* byte_count_mismatch = "pdu.byte_count_mismatch";
+inline constexpr const char* malformed = "pdu.malformed";
+inline constexpr const char* mismatch_request = "pdu.request_mismatch";  // answer disagrees with request
+inline constexpr const char* illegal_value = "pdu.illegal_value";
+inline constexpr const char* unknown_function = "pdu.unknown_function";
+}  // namespace note_id
+
+}  // namespace rtuscope
