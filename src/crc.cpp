@@ -24,7 +24,10 @@ constexpr auto kTable = make_table();
 }  // namespace
 
 std::uint16_t crc16_modbus(std::span<const std::uint8_t> bytes) {
-    std::uint16_t crc = 0xFFFF;
+    return crc16_modbus_update(0xFFFF, bytes);
+}
+
+std::uint16_t crc16_modbus_update(std::uint16_t crc, std::span<const std::uint8_t> bytes) {
     for (std::uint8_t b : bytes) {
         crc = static_cast<std::uint16_t>((crc >> 8) ^ kTable[(crc ^ b) & 0xFFU]);
     }

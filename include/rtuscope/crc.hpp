@@ -8,6 +8,8 @@
 namespace rtuscope {
 
 std::uint16_t crc16_modbus(std::span<const std::uint8_t> bytes);
+// Continues a CRC over more bytes: crc16_modbus(a + b) == crc16_modbus_update(crc16_modbus(a), b).
+std::uint16_t crc16_modbus_update(std::uint16_t crc, std::span<const std::uint8_t> bytes);
 
 enum class CrcStatus : std::uint8_t {
     none,     // not a frame (noise)

@@ -28,7 +28,6 @@ inline constexpr const char* noise = "frame.noise";
 // transactions
 inline constexpr const char* no_answer = "txn.no_answer";
 inline constexpr const char* unsolicited = "txn.unsolicited";  // answer with no request
-inline constexpr const char* early_answer = "txn.early_answer";  // sooner than t3.5
 // PDU decoding
 inline constexpr const char* byte_count_mismatch = "pdu.byte_count_mismatch";
 inline constexpr const char* malformed = "pdu.malformed";

@@ -10,6 +10,10 @@ namespace rtuscope {
 
 // One clear line for the user; file/line/column when the error points into a file.
 struct Error {
+    Error() = default;
+    explicit Error(std::string message_, std::string file_ = {}, int line_ = 0, int column_ = 0)
+        : message(std::move(message_)), file(std::move(file_)), line(line_), column(column_) {}
+
     std::string message;
     std::string file;
     int line = 0;    // 1-based, 0 = none

@@ -1,0 +1,88 @@
+// Stage 2, framer: turns chunks into frames and noise runs.
+//
+// Gaps between characters are the first signal (t3.5 ends a frame), but real lines break
+// that rule: USB adapters deliver bytes in 1-16 ms batches, slaves answer sooner than
+// t3.5, RS-485 drivers add a junk byte when they switch off. So a frame is found by the
+// length its function code implies, confirmed by the CRC; gaps bound the search where no
+// field gives the length, and delimit frames whose CRC is wrong. Every input byte ends up
+// in exactly one Frame record.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "rtuscope/chunk.hpp"
+#include "rtuscope/expectation.hpp"
+#include "rtuscope/frame.hpp"
+#include "rtuscope/line_settings.hpp"
+#include "rtuscope/protocol_rules.hpp"
+
+namespace rtuscope {
+
+struct FramerOptions {
+    LineSettings line;
+    bool chunk_is_frame = false;  // hex logs: each chunk is exactly one frame
+    const ProtocolRules* rules = &standard_rules();
+    const AnswerExpectation* expectation = nullptr;  // usually the pairing stage
+};
+
+class Framer {
+public:
+    using Emit = std::function<void(Frame&&)>;
+
+    Framer(FramerOptions options, Emit emit);
+
+    // Adds a chunk; emits every record that the bytes so far decide.
+    void push(const Chunk& chunk);
+    // No more input: decides and emits everything still buffered.
+    void finish();
+
+private:
+    enum class Outcome : std::uint8_t { frame, no_frame, need_more };
+    struct Attempt {
+        Outcome outcome = Outcome::no_frame;
+        std::size_t length = 0;
+        Reading reading = Reading::unknown;
+        Delimiter delimiter = Delimiter::length_crc;
+        CrcStatus crc = CrcStatus::none;
+    };
+
+    void decide(bool at_end);
+    Attempt attempt_at(std::size_t at, bool at_end) const;
+    [[nodiscard]] std::size_t next_gap(std::size_t after) const;
+    [[nodiscard]] bool gap_before(std::size_t at) const;
+    void classify_unframed(std::size_t from, std::size_t to);
+    // Whether the pairing stage awaits an answer from this slave and function at `at`.
+    [[nodiscard]] bool awaits_answer(std::span<const std::uint8_t> head, Nanos at) const;
+    // Request or answer by length alone (or by the awaited answer when both fit).
+    [[nodiscard]] Reading reading_by_shape(std::span<const std::uint8_t> frame, Nanos at) const;
+    bool emit_if_truncated(std::size_t at, std::size_t n);
+    void emit_chunk_as_frame(const Chunk& chunk);
+    void emit(std::size_t at, std::size_t length, RecordClass cls, Reading reading,
+              Delimiter delimiter, Notes notes);
+    void add_timing_notes(Frame& frame, std::size_t at, std::size_t length) const;
+
+    FramerOptions options_;
+    Emit emit_;
+    Nanos char_time_;
+    Nanos t15_;
+    Nanos t35_;
+
+    // Bytes not yet emitted, from index `pos_` on, with what is known of each byte's timing.
+    std::vector<std::uint8_t> bytes_;
+    std::vector<Nanos> byte_end_;
+    std::vector<Nanos> gap_;        // silence before the byte; kNoTime inside a chunk
+    std::vector<bool> exact_;       // this byte and the one before came alone (per-byte timing)
+    std::vector<std::uint16_t> channel_;
+    std::vector<int> line_;
+    std::size_t pos_ = 0;
+    std::size_t scan_hint_ = 0;  // bytes before it are known to start no frame
+    std::vector<std::string> channels_;
+    Nanos last_end_ = kNoTime;
+    bool seen_bytes_ = false;
+    bool previous_chunk_single_ = false;
+};
+
+}  // namespace rtuscope

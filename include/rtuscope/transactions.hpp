@@ -1,0 +1,73 @@
+// Stage 3, transactions: decides what each frame is (request, answer, exception,
+// broadcast), pairs each answer with its request, measures the turnaround, and reports
+// requests that got no answer. Records leave in stream order, numbered from 1; a request
+// is held back until its fate is known (answered, or not within the timeout).
+#pragma once
+
+#include <cstdint>
+#include <deque>
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "rtuscope/expectation.hpp"
+#include "rtuscope/frame.hpp"
+#include "rtuscope/protocol_rules.hpp"
+#include "rtuscope/decoder.hpp"
+
+namespace rtuscope {
+
+enum class Kind : std::uint8_t {
+    request,
+    response,
+    exception,
+    broadcast,
+    unknown,  // a valid frame whose role is unclear
+    invalid,  // bad CRC or cut short
+    noise,
+};
+
+const char* to_string(Kind kind);
+
+struct Record {
+    std::uint64_t number = 0;  // 1-based, stream order
+    Frame frame;
+    Kind kind = Kind::noise;
+    std::uint64_t request_number = 0;   // answers: the request they answer; 0 if none
+    Nanos latency = kNoTime;            // answers: end of request to start of answer
+    std::vector<std::uint8_t> request;  // answers: the request frame, for decoding
+    Notes notes;                        // everything noticed, frame notes first
+    DecodedPdu decoded;                 // filled by the decoder stage
+};
+
+struct TransactionOptions {
+    Nanos timeout = kNanosPerSecond;  // an answer later than this is no answer
+    const ProtocolRules* rules = &standard_rules();
+};
+
+class Transactions : public AnswerExpectation {
+public:
+    using Emit = std::function<void(Record&&)>;
+
+    Transactions(TransactionOptions options, Emit emit);
+
+    void push(Frame&& frame);
+    void finish();
+
+    [[nodiscard]] const AwaitedAnswer* awaited(Nanos at) const override;
+
+private:
+    void give_up_on_request(std::string why);
+    void release();
+
+    TransactionOptions options_;
+    Emit emit_;
+    std::uint64_t next_number_ = 1;
+    std::deque<Record> held_;                // the first is the awaited request, if any
+    std::optional<std::size_t> awaiting_;    // index into held_ of the awaited request
+    AwaitedAnswer awaited_;
+    Nanos awaited_end_ = kNoTime;
+};
+
+}  // namespace rtuscope

@@ -1,0 +1,74 @@
+// The per-frame CSV of DESIGN.md: RFC 4180, the documented columns first in their order.
+#include <fmt/format.h>
+
+#include "rtuscope/sinks.hpp"
+
+namespace rtuscope {
+namespace {
+
+void put_field(std::string& line, std::string_view field) {
+    if (field.find_first_of(",\"\r\n") == std::string_view::npos) {
+        line += field;
+        return;
+    }
+    line += '"';
+    for (char c : field) {
+        if (c == '"') line += '"';
+        line += c;
+    }
+    line += '"';
+}
+
+class CsvSink final : public RecordSink {
+public:
+    explicit CsvSink(std::FILE* out) : out_(out) {}
+
+    void begin(const SessionInfo& /*session*/) override {
+        std::fputs(
+            "frame,time,slave,function,kind,crc,request,latency_ms,summary,hex,flags,notes\n",
+            out_);
+    }
+
+    void record(const Record& r) override {
+        const bool framed = r.kind != Kind::noise;
+        std::string ids;
+        std::string texts;
+        for (const Note& note : r.notes) {
+            if (!ids.empty()) ids += ' ';
+            ids += note.id;
+            if (!texts.empty()) texts += "; ";
+            texts += note.text;
+        }
+        std::string line = fmt::format("{},{},", r.number, seconds_text(r.frame.start));
+        if (framed && !r.frame.bytes.empty()) line += fmt::format("{}", r.frame.slave());
+        line += ',';
+        if (framed && r.frame.bytes.size() >= 2) line += fmt::format("{}", r.frame.function());
+        line += fmt::format(",{},{},", to_string(r.kind), to_string(r.frame.crc.status));
+        if (r.request_number != 0) line += fmt::format("{}", r.request_number);
+        line += ',';
+        if (has_time(r.latency)) line += fmt::format("{:.3f}", static_cast<double>(r.latency) / 1e6);
+        line += ',';
+        put_field(line, record_summary(r));
+        line += ',';
+        line += hex_bytes(r.frame.bytes, false);
+        line += ',';
+        put_field(line, ids);
+        line += ',';
+        put_field(line, texts);
+        line += '\n';
+        std::fwrite(line.data(), 1, line.size(), out_);
+    }
+
+    void end(const Totals& /*totals*/, const std::vector<std::string>& /*remarks*/) override {
+        std::fflush(out_);
+    }
+
+private:
+    std::FILE* out_;
+};
+
+}  // namespace
+
+std::unique_ptr<RecordSink> make_csv_sink(std::FILE* out) { return std::make_unique<CsvSink>(out); }
+
+}  // namespace rtuscope

@@ -1,0 +1,417 @@
+// The passive framer. See framer.hpp for why gaps alone cannot delimit frames.
+//
+// Bytes wait in a buffer until the first undecided byte can be decided:
+//  1. At the first byte, every reading the function code allows (request, answer,
+//     exception) gives a length; a length whose CRC checks is a frame. When several do
+//     (a request followed by 00 also passes as a 9-byte FC03 answer), the reading the
+//     request/answer sequence expects wins, then the one followed by a gap, then the
+//     shorter. Function codes whose length no field gives are found by the CRC over
+//     the possible lengths, bounded by the next gap where the input has timing.
+//  2. Otherwise the bytes up to the next position where a frame starts are cut at gaps;
+//     a piece that exactly fits a frame's shape is an invalid frame (CRC wrong), a piece
+//     that is cut short between two gaps is a truncated frame, the rest is noise.
+#include "rtuscope/framer.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <limits>
+
+namespace rtuscope {
+namespace {
+
+// A gap before the first byte of the input or of a new channel: always a boundary.
+constexpr Nanos kBoundary = std::numeric_limits<Nanos>::max();
+
+Reading reading_for(Role role, std::uint8_t function) {
+    if (role == Role::request) return Reading::request;
+    return (function & 0x80U) ? Reading::exception : Reading::response;
+}
+
+std::string crc_note_text(const CrcCheck& crc) {
+    return fmt::format("CRC BAD (expected {:02X} {:02X}, got {:02X} {:02X})", crc.expected & 0xFFU,
+                       crc.expected >> 8, crc.received & 0xFFU, crc.received >> 8);
+}
+
+double in_ms(Nanos t) { return static_cast<double>(t) / 1e6; }
+
+}  // namespace
+
+Framer::Framer(FramerOptions options, Emit emit)
+    : options_(options),
+      emit_(std::move(emit)),
+      char_time_(options.line.char_time()),
+      t15_(options.line.t15()),
+      t35_(options.line.t35()) {}
+
+void Framer::push(const Chunk& chunk) {
+    if (chunk.bytes.empty()) return;
+    if (options_.chunk_is_frame) {
+        emit_chunk_as_frame(chunk);
+        return;
+    }
+
+    // Channel of this chunk; a change of channel is a frame boundary.
+    auto channel_it = std::find(channels_.begin(), channels_.end(), chunk.channel);
+    const auto channel = static_cast<std::uint16_t>(channel_it - channels_.begin());
+    if (channel_it == channels_.end()) channels_.push_back(chunk.channel);
+    const bool channel_changed = !bytes_.empty() && pos_ < bytes_.size() &&
+                                 channel_.back() != channel;
+
+    // The chunk's time is when its last byte arrived; earlier bytes are placed back to
+    // back before it, but never before the previous byte (adapters deliver late).
+    const auto n = static_cast<Nanos>(chunk.bytes.size());
+    Nanos first_start = kNoTime;
+    Nanos gap = kNoTime;
+    if (has_time(chunk.time)) {
+        first_start = chunk.time - n * char_time_;
+        if (has_time(last_end_)) {
+            gap = std::max<Nanos>(0, first_start - last_end_);
+            if (first_start < last_end_ && chunk.time >= last_end_) first_start = last_end_;
+        }
+    }
+    if (!seen_bytes_ || channel_changed) gap = kBoundary;
+
+    for (std::size_t i = 0; i < chunk.bytes.size(); ++i) {
+        bytes_.push_back(chunk.bytes[i]);
+        Nanos end = kNoTime;
+        if (has_time(chunk.time)) {
+            end = first_start + (chunk.time - first_start) * static_cast<Nanos>(i + 1) / n;
+        }
+        byte_end_.push_back(end);
+        gap_.push_back(i == 0 ? gap : kNoTime);
+        exact_.push_back(chunk.bytes.size() == 1 && previous_chunk_single_);
+        channel_.push_back(channel);
+        line_.push_back(chunk.source_line);
+    }
+    if (has_time(chunk.time)) last_end_ = chunk.time;
+    previous_chunk_single_ = chunk.bytes.size() == 1;
+    seen_bytes_ = true;
+    decide(false);
+}
+
+void Framer::finish() { decide(true); }
+
+bool Framer::gap_before(std::size_t at) const {
+    if (at >= bytes_.size()) return false;
+    return gap_[at] != kNoTime && gap_[at] >= t35_;
+}
+
+std::size_t Framer::next_gap(std::size_t after) const {
+    for (std::size_t j = after + 1; j < bytes_.size(); ++j) {
+        if (gap_before(j)) return j;
+    }
+    return bytes_.size();
+}
+
+Framer::Attempt Framer::attempt_at(std::size_t at, bool at_end) const {
+    Attempt none;
+    const std::size_t avail = bytes_.size() - at;
+    if (avail < 2) {
+        none.outcome = at_end ? Outcome::no_frame : Outcome::need_more;
+        return none;
+    }
+    const auto head = std::span(bytes_).subspan(at, std::min(avail, kMaxAdu));
+    const std::uint8_t slave = head[0];
+    const std::uint8_t function = head[1];
+    const ProtocolRules& rules = *options_.rules;
+
+    // Which reading the request/answer sequence expects here.
+    bool prefer_response = awaits_answer(head, byte_end_[at]);
+    if (prefer_response) {
+        // The same request sent again (a master's retry) is not an answer, unless answers
+        // to this function repeat the request anyway.
+        const auto& req = options_.expectation->awaited(byte_end_[at])->request;
+        if (!rules.answer_is_echo(slave, function) && req.size() <= avail &&
+            std::equal(req.begin(), req.end(), head.begin())) {
+            prefer_response = false;
+        }
+    }
+
+    bool pending = false;
+    Attempt best;
+    auto better = [&](const Attempt& a, const Attempt& b, bool a_gap, bool b_gap) {
+        if ((a.crc == CrcStatus::ok) != (b.crc == CrcStatus::ok)) return a.crc == CrcStatus::ok;
+        const bool a_pref = (a.reading != Reading::request) == prefer_response;
+        const bool b_pref = (b.reading != Reading::request) == prefer_response;
+        if (a_pref != b_pref) return a_pref;
+        if (a_gap != b_gap) return a_gap;
+        return a.length < b.length;
+    };
+    auto followed_by_gap = [&](const Attempt& a) {
+        const std::size_t end = at + a.length;
+        return end == bytes_.size() ? at_end : gap_before(end);
+    };
+
+    for (const Role role : {Role::request, Role::response}) {
+        const FrameLength length = rules.frame_length(head, role);
+        Attempt candidate;
+        candidate.outcome = Outcome::frame;
+        candidate.reading = reading_for(role, function);
+        switch (length.kind) {
+            case FrameLength::Kind::none:
+                continue;
+            case FrameLength::Kind::need_more:
+                // More bytes would tell the length (head is all that is buffered).
+                if (!at_end && head.size() < kMaxAdu) pending = true;
+                continue;
+            case FrameLength::Kind::fixed: {
+                if (length.bytes < kMinAdu) continue;
+                if (length.bytes > avail) {
+                    if (!at_end) pending = true;
+                    continue;
+                }
+                candidate.length = length.bytes;
+                candidate.crc = check_crc(head.first(length.bytes)).status;
+                if (candidate.crc == CrcStatus::bad) continue;
+                candidate.delimiter = Delimiter::length_crc;
+                break;
+            }
+            case FrameLength::Kind::search: {
+                if (role == Role::response && candidate.reading == Reading::response &&
+                    best.outcome == Outcome::frame && best.delimiter == Delimiter::crc_search) {
+                    continue;  // same search as the request reading
+                }
+                const std::size_t gap_bound = next_gap(at) - at;
+                const std::size_t bound = std::min(gap_bound, head.size());
+                std::uint16_t crc = crc16_modbus(head.first(kMinAdu - 2));
+                for (std::size_t n = kMinAdu; n <= bound; ++n) {
+                    if (crc == (head[n - 2] | (head[n - 1] << 8))) {
+                        candidate.length = n;
+                        break;
+                    }
+                    crc = crc16_modbus_update(crc, head.subspan(n - 2, 1));
+                }
+                if (candidate.length == 0) {
+                    if (!at_end && bound == avail && avail < kMaxAdu) pending = true;
+                    continue;
+                }
+                candidate.crc = CrcStatus::ok;
+                candidate.delimiter = Delimiter::crc_search;
+                // Order, not shape, tells which way these go.
+                candidate.reading = prefer_response ? reading_for(Role::response, function)
+                                                    : Reading::request;
+                break;
+            }
+        }
+        if (best.outcome != Outcome::frame ||
+            better(candidate, best, followed_by_gap(candidate), followed_by_gap(best))) {
+            best = candidate;
+        }
+    }
+
+    if (pending) {
+        none.outcome = Outcome::need_more;
+        return none;
+    }
+    if (best.outcome != Outcome::frame) return none;
+    if (best.delimiter == Delimiter::length_crc) {
+        if (followed_by_gap(best)) {
+            best.delimiter = Delimiter::gap;
+        } else if (at + best.length == bytes_.size()) {
+            best.delimiter = Delimiter::end_of_input;
+        }
+    }
+    return best;
+}
+
+void Framer::decide(bool at_end) {
+    while (pos_ < bytes_.size()) {
+        const Attempt here = attempt_at(pos_, at_end);
+        if (here.outcome == Outcome::need_more) break;
+        if (here.outcome == Outcome::frame) {
+            Notes notes;
+            if (here.crc == CrcStatus::swapped) {
+                notes.push_back({note_id::crc_swapped, "CRC bytes swapped"});
+            }
+            if (here.delimiter == Delimiter::crc_search) {
+                notes.push_back({note_id::unknown_length, "length found by CRC"});
+            }
+            emit(pos_, here.length, RecordClass::frame, here.reading, here.delimiter,
+                 std::move(notes));
+            continue;
+        }
+
+        // No frame starts here: find where the next one does.
+        std::size_t resync = std::max(scan_hint_, pos_ + 1);
+        bool waiting = false;
+        for (; resync < bytes_.size(); ++resync) {
+            const Outcome outcome = attempt_at(resync, at_end).outcome;
+            if (outcome == Outcome::frame) break;
+            if (outcome == Outcome::need_more) {
+                waiting = true;
+                break;
+            }
+        }
+        if (waiting) {
+            scan_hint_ = resync;
+            // Long garbage must not grow the buffer without end: what lies a whole ADU
+            // before the undecided position can no longer be part of a frame.
+            if (resync - pos_ > 16 * kMaxAdu) classify_unframed(pos_, resync - kMaxAdu);
+            break;
+        }
+        classify_unframed(pos_, resync);
+    }
+
+    if (pos_ == bytes_.size() || pos_ > (1U << 16)) {
+        const auto drop = static_cast<std::ptrdiff_t>(pos_);
+        bytes_.erase(bytes_.begin(), bytes_.begin() + drop);
+        byte_end_.erase(byte_end_.begin(), byte_end_.begin() + drop);
+        gap_.erase(gap_.begin(), gap_.begin() + drop);
+        exact_.erase(exact_.begin(), exact_.begin() + drop);
+        channel_.erase(channel_.begin(), channel_.begin() + drop);
+        line_.erase(line_.begin(), line_.begin() + drop);
+        scan_hint_ = scan_hint_ > pos_ ? scan_hint_ - pos_ : 0;
+        pos_ = 0;
+    }
+}
+
+bool Framer::awaits_answer(std::span<const std::uint8_t> head, Nanos at) const {
+    if (options_.expectation == nullptr || head.size() < 2) return false;
+    const AwaitedAnswer* awaited = options_.expectation->awaited(at);
+    return awaited != nullptr && awaited->slave == head[0] &&
+           awaited->function == (head[1] & 0x7FU);
+}
+
+Reading Framer::reading_by_shape(std::span<const std::uint8_t> frame, Nanos at) const {
+    if (frame.size() < 2) return Reading::unknown;
+    bool fits[2] = {false, false};
+    for (const Role role : {Role::request, Role::response}) {
+        const FrameLength length = options_.rules->frame_length(frame, role);
+        fits[role == Role::response] =
+            (length.kind == FrameLength::Kind::fixed && length.bytes == frame.size()) ||
+            length.kind == FrameLength::Kind::search;
+    }
+    const bool prefer_response = awaits_answer(frame, at);
+    if (fits[0] && fits[1]) {
+        return prefer_response ? reading_for(Role::response, frame[1]) : Reading::request;
+    }
+    if (fits[0]) return Reading::request;
+    if (fits[1]) return reading_for(Role::response, frame[1]);
+    return Reading::unknown;
+}
+
+void Framer::classify_unframed(std::size_t from, std::size_t to) {
+    const bool timed = has_time(byte_end_[from]);
+    std::size_t start = from;
+    while (start < to) {
+        std::size_t end = start + 1;
+        while (end < to && !gap_before(end)) ++end;
+        const std::size_t n = end - start;
+        const auto piece = std::span(bytes_).subspan(start, n);
+        const bool bounded_by_gaps =
+            timed && gap_before(start) && (end == bytes_.size() || gap_before(end));
+
+        if (n >= kMinAdu) {
+            const CrcCheck crc = check_crc(piece);
+            const Reading shape = reading_by_shape(piece, byte_end_[start]);
+            if (crc.status != CrcStatus::bad) {
+                // CRC right but the length disagrees with the function code.
+                Notes notes{{note_id::malformed, "length does not fit its function code"}};
+                if (crc.status == CrcStatus::swapped) notes.push_back({note_id::crc_swapped, "CRC bytes swapped"});
+                emit(start, n, RecordClass::frame, shape, Delimiter::gap, std::move(notes));
+                start = end;
+                continue;
+            }
+            if (shape != Reading::unknown) {
+                emit(start, n, RecordClass::invalid, shape,
+                     bounded_by_gaps ? Delimiter::gap : Delimiter::length_crc,
+                     {{note_id::crc_mismatch, crc_note_text(crc)}});
+                start = end;
+                continue;
+            }
+        }
+        if (n >= 3 && bounded_by_gaps && emit_if_truncated(start, n)) {
+            start = end;
+            continue;
+        }
+        emit(start, n, RecordClass::noise, Reading::unknown, Delimiter::gap, {});
+        start = end;
+    }
+}
+
+bool Framer::emit_if_truncated(std::size_t at, std::size_t n) {
+    // A broken-off transmission: too short for the length its header implies.
+    const auto piece = std::span(bytes_).subspan(at, n);
+    const bool answer_first = awaits_answer(piece, byte_end_[at]);
+    for (const Role role : {answer_first ? Role::response : Role::request,
+                            answer_first ? Role::request : Role::response}) {
+        const FrameLength length = options_.rules->frame_length(piece, role);
+        if (length.kind == FrameLength::Kind::fixed && length.bytes > n) {
+            emit(at, n, RecordClass::invalid, reading_for(role, piece[1]), Delimiter::gap,
+                 {{note_id::truncated, fmt::format("cut short: {} of {} bytes", n, length.bytes)}});
+            return true;
+        }
+    }
+    return false;
+}
+
+void Framer::emit_chunk_as_frame(const Chunk& chunk) {
+    Frame frame;
+    frame.bytes = chunk.bytes;
+    frame.end = chunk.time;
+    if (has_time(chunk.time)) {
+        frame.start = chunk.time - static_cast<Nanos>(chunk.bytes.size()) * char_time_;
+    }
+    frame.channel = chunk.channel;
+    frame.source_line = chunk.source_line;
+    frame.delimiter = Delimiter::line;
+    frame.crc = check_crc(frame.bytes);
+    frame.reading = reading_by_shape(frame.bytes, chunk.time);
+    frame.cls = frame.crc.status == CrcStatus::bad ? RecordClass::invalid : RecordClass::frame;
+    if (frame.bytes.size() < kMinAdu) frame.cls = RecordClass::invalid;
+    if (frame.crc.status == CrcStatus::bad) {
+        frame.notes.push_back({note_id::crc_mismatch, crc_note_text(frame.crc)});
+    } else if (frame.crc.status == CrcStatus::swapped) {
+        frame.notes.push_back({note_id::crc_swapped, "CRC bytes swapped"});
+    }
+    if (frame.reading == Reading::unknown && frame.cls == RecordClass::frame) {
+        frame.notes.push_back({note_id::malformed, "length does not fit its function code"});
+    }
+    emit_(std::move(frame));
+}
+
+void Framer::emit(std::size_t at, std::size_t length, RecordClass cls, Reading reading,
+                  Delimiter delimiter, Notes notes) {
+    Frame frame;
+    frame.bytes.assign(bytes_.begin() + static_cast<std::ptrdiff_t>(at),
+                       bytes_.begin() + static_cast<std::ptrdiff_t>(at + length));
+    frame.cls = cls;
+    frame.reading = reading;
+    frame.delimiter = delimiter;
+    if (cls != RecordClass::noise) frame.crc = check_crc(frame.bytes);
+    if (has_time(byte_end_[at])) frame.start = byte_end_[at] - char_time_;
+    frame.end = byte_end_[at + length - 1];
+    frame.channel = channels_[channel_[at]];
+    frame.source_line = line_[at];
+    frame.notes = std::move(notes);
+    if (cls != RecordClass::noise) add_timing_notes(frame, at, length);
+    pos_ = at + length;
+    scan_hint_ = 0;
+    emit_(std::move(frame));
+}
+
+void Framer::add_timing_notes(Frame& frame, std::size_t at, std::size_t length) const {
+    // Only per-byte timing (one byte per chunk) measures real silences; a chunk of many
+    // bytes only says when the adapter handed them over.
+    auto measured = [&](std::size_t j) {
+        return exact_[j] && gap_[j] != kNoTime && gap_[j] != kBoundary;
+    };
+    if (measured(at) && gap_[at] < t35_) {
+        frame.notes.push_back(
+            {note_id::short_gap,
+             fmt::format("{:.1f} character times of silence before it (< t3.5)",
+                         static_cast<double>(gap_[at]) / static_cast<double>(char_time_))});
+    }
+    Nanos widest = 0;
+    for (std::size_t j = at + 1; j < at + length; ++j) {
+        if (measured(j)) widest = std::max(widest, gap_[j]);
+    }
+    if (widest > t15_) {
+        frame.notes.push_back(
+            {note_id::gap_inside, fmt::format("silence of {:.2f} ms inside (> t1.5)",
+                                              in_ms(widest))});
+    }
+}
+
+}  // namespace rtuscope

@@ -1,0 +1,153 @@
+// Annotated text for people: one line per record, aligned columns, problems marked on
+// the line where they happen, a summary at the end.
+#include <fmt/color.h>
+#include <fmt/format.h>
+
+#include "rtuscope/sinks.hpp"
+
+namespace rtuscope {
+namespace {
+
+// Timestamps from 2001 on are taken as absolute Unix time and shown as time of day (UTC:
+// output must not depend on the machine's zone); smaller ones are relative seconds.
+constexpr Nanos kAbsoluteFrom = 1'000'000'000 * kNanosPerSecond;
+constexpr std::size_t kNoiseBytesShown = 16;
+
+std::string time_of_day(Nanos time) {
+    const std::uint64_t micros = (static_cast<std::uint64_t>(time) + 500) / 1000;
+    const std::uint64_t seconds = micros / 1'000'000 % 86'400;
+    return fmt::format("{:02}:{:02}:{:02}.{:06}", seconds / 3600, seconds / 60 % 60, seconds % 60,
+                       micros % 1'000'000);
+}
+
+const char* arrow(const Record& r) {
+    switch (r.kind) {
+        case Kind::request:
+        case Kind::broadcast: return "▶";
+        case Kind::response:
+        case Kind::exception: return "◀";
+        case Kind::invalid:
+            if (r.frame.reading == Reading::request) return "▶";
+            if (r.frame.reading != Reading::unknown) return "◀";
+            return "?";
+        case Kind::unknown:
+        case Kind::noise: return "?";
+    }
+    return "?";
+}
+
+class TextSink final : public RecordSink {
+public:
+    TextSink(std::FILE* out, TextOptions options) : out_(out), options_(options) {}
+
+    void begin(const SessionInfo& s) override {
+        const LineSettings& line = s.line;
+        fmt::print(out_, "{}: {} input, {} {} (t1.5 {:.2f} ms, t3.5 {:.2f} ms){}\n", s.source.name,
+                   s.source.format, line.baud, line.format(),
+                   static_cast<double>(line.t15()) / 1e6, static_cast<double>(line.t35()) / 1e6,
+                   s.source.timed ? "" : ", no timing");
+    }
+
+    void record(const Record& r) override {
+        std::string line = fmt::format("{:>5} {:>15}  ", r.number, time_column(r.frame.start));
+        const bool framed = r.kind != Kind::noise;
+        line += framed ? fmt::format("{:>3} ", r.frame.slave()) : std::string("    ");
+        line += paint(arrow(r), colour_of(r));
+        line += ' ';
+
+        std::string function;
+        std::string summary;
+        if (framed) {
+            function = r.decoded.function_name;
+            summary = r.decoded.summary;
+        } else {
+            function = record_summary(r);
+            const auto shown = std::min(r.frame.bytes.size(), kNoiseBytesShown);
+            summary = hex_bytes(std::span(r.frame.bytes).first(shown), true);
+            if (shown < r.frame.bytes.size()) summary += " ...";
+        }
+        line += paint(fmt::format("{:<30}", function), colour_of(r));
+        line += ' ';
+        line += summary;
+        if (r.kind == Kind::broadcast) line += "  (broadcast, no answer expected)";
+        if (has_time(r.latency)) {
+            line += fmt::format("  {:.2f} ms after #{}", static_cast<double>(r.latency) / 1e6,
+                                r.request_number);
+        } else if (r.request_number != 0) {
+            line += fmt::format("  answers #{}", r.request_number);
+        }
+        if (!r.notes.empty()) {
+            std::string notes = "! ";
+            for (std::size_t i = 0; i < r.notes.size(); ++i) {
+                if (i > 0) notes += "; ";
+                notes += r.notes[i].text;
+            }
+            line += "  ";
+            line += paint(notes, fmt::terminal_color::yellow);
+        }
+        // Trailing spaces come from padding a short last column.
+        while (!line.empty() && line.back() == ' ') line.pop_back();
+        line += '\n';
+        if (options_.hex && framed) {
+            line += fmt::format("{:>28}{}\n", "", hex_bytes(r.frame.bytes, true));
+        }
+        std::fwrite(line.data(), 1, line.size(), out_);
+        if (has_time(r.frame.start)) previous_ = r.frame.start;
+    }
+
+    void end(const Totals& t, const std::vector<std::string>& remarks) override {
+        fmt::print(out_,
+                   "-- {} records, {} bytes: {} requests, {} answers, {} exceptions, "
+                   "{} broadcasts, {} unknown, {} invalid, {} noise bytes in {} runs\n",
+                   t.records, t.bytes, t.requests, t.responses, t.exceptions, t.broadcasts,
+                   t.unknown, t.invalid, t.noise_bytes, t.noise_runs);
+        fmt::print(out_,
+                   "-- CRC: {} bad, {} swapped; {} requests without answer; "
+                   "{} answers without request\n",
+                   t.crc_bad, t.crc_swapped, t.unanswered, t.unsolicited);
+        for (const std::string& remark : remarks) fmt::print(out_, "-- note: {}\n", remark);
+        std::fflush(out_);
+    }
+
+private:
+    std::string time_column(Nanos time) {
+        if (!has_time(time)) return "-";
+        if (!has_time(first_)) first_ = time;
+        switch (options_.time_format) {
+            case TimeFormat::absolute:
+                return time >= kAbsoluteFrom ? time_of_day(time) : seconds_text(time);
+            case TimeFormat::relative: return seconds_text(time - first_);
+            case TimeFormat::delta:
+                return seconds_text(has_time(previous_) ? time - previous_ : 0);
+        }
+        return "-";
+    }
+
+    static fmt::terminal_color colour_of(const Record& r) {
+        switch (r.kind) {
+            case Kind::response: return fmt::terminal_color::cyan;
+            case Kind::exception: return fmt::terminal_color::yellow;
+            case Kind::invalid:
+            case Kind::noise: return fmt::terminal_color::red;
+            default: return fmt::terminal_color::white;
+        }
+    }
+
+    std::string paint(const std::string& text, fmt::terminal_color colour) const {
+        if (!options_.color || colour == fmt::terminal_color::white) return text;
+        return fmt::format("{}", fmt::styled(text, fmt::fg(colour)));
+    }
+
+    std::FILE* out_;
+    TextOptions options_;
+    Nanos first_ = kNoTime;
+    Nanos previous_ = kNoTime;
+};
+
+}  // namespace
+
+std::unique_ptr<RecordSink> make_text_sink(std::FILE* out, TextOptions options) {
+    return std::make_unique<TextSink>(out, options);
+}
+
+}  // namespace rtuscope

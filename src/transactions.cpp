@@ -1,0 +1,118 @@
+#include "rtuscope/transactions.hpp"
+
+#include <fmt/format.h>
+
+namespace rtuscope {
+
+const char* to_string(Kind kind) {
+    switch (kind) {
+        case Kind::request: return "request";
+        case Kind::response: return "response";
+        case Kind::exception: return "exception";
+        case Kind::broadcast: return "broadcast";
+        case Kind::unknown: return "unknown";
+        case Kind::invalid: return "invalid";
+        case Kind::noise: return "noise";
+    }
+    return "";
+}
+
+Transactions::Transactions(TransactionOptions options, Emit emit)
+    : options_(options), emit_(std::move(emit)) {}
+
+const AwaitedAnswer* Transactions::awaited(Nanos at) const {
+    if (!awaiting_) return nullptr;
+    if (has_time(at) && has_time(awaited_end_) && at - awaited_end_ > options_.timeout) {
+        return nullptr;
+    }
+    return &awaited_;
+}
+
+void Transactions::give_up_on_request(std::string why) {
+    if (!awaiting_) return;
+    Record& request = held_[*awaiting_];
+    request.notes.push_back({note_id::no_answer, std::move(why)});
+    awaiting_.reset();
+    release();
+}
+
+// Everything before the awaited request, or everything when none is awaited, is final.
+void Transactions::release() {
+    const std::size_t keep_from = awaiting_ ? *awaiting_ : held_.size();
+    for (std::size_t i = 0; i < keep_from; ++i) {
+        emit_(std::move(held_.front()));
+        held_.pop_front();
+    }
+    if (awaiting_) awaiting_ = 0;
+}
+
+void Transactions::push(Frame&& frame) {
+    Record record;
+    record.number = next_number_++;
+    record.notes = std::move(frame.notes);
+    record.frame = std::move(frame);
+    const Frame& f = record.frame;
+
+    // A request that has waited past the timeout by the time this frame starts.
+    if (awaiting_ && has_time(f.start) && has_time(awaited_end_) &&
+        f.start - awaited_end_ > options_.timeout) {
+        give_up_on_request(fmt::format("no answer within {:g} s",
+                                        static_cast<double>(options_.timeout) / 1e9));
+    }
+
+    const bool answer_reading =
+        f.reading == Reading::response || f.reading == Reading::exception;
+    const bool matches_awaited = awaiting_ && f.slave() == awaited_.slave &&
+                                 (f.function() & 0x7FU) == awaited_.function;
+
+    switch (f.cls) {
+        case RecordClass::noise: record.kind = Kind::noise; break;
+        case RecordClass::invalid: record.kind = Kind::invalid; break;
+        case RecordClass::frame:
+            if (f.reading == Reading::request) {
+                record.kind = options_.rules->is_broadcast(f.slave()) ? Kind::broadcast
+                                                                      : Kind::request;
+            } else if (answer_reading) {
+                record.kind = f.reading == Reading::exception ? Kind::exception : Kind::response;
+            } else if (matches_awaited) {
+                record.kind = (f.function() & 0x80U) ? Kind::exception : Kind::response;
+            } else {
+                record.kind = Kind::unknown;
+            }
+            break;
+    }
+
+    const bool is_answer = record.kind == Kind::response || record.kind == Kind::exception;
+    if (is_answer) {
+        if (matches_awaited) {
+            Record& request = held_[*awaiting_];
+            record.request_number = request.number;
+            record.request = request.frame.bytes;
+            if (has_time(f.start) && has_time(request.frame.end)) {
+                record.latency = f.start - request.frame.end;
+            }
+            awaiting_.reset();
+        } else {
+            record.notes.push_back({note_id::unsolicited, "answer with no request"});
+        }
+    } else if (record.kind == Kind::request || record.kind == Kind::broadcast) {
+        // One master, one transaction at a time: a new request ends the wait.
+        give_up_on_request("no answer before the next request");
+    }
+
+    held_.push_back(std::move(record));
+    if (held_.back().kind == Kind::request) {
+        awaiting_ = held_.size() - 1;
+        const Frame& request = held_.back().frame;
+        awaited_ = {request.slave(), request.function(), request.bytes};
+        awaited_end_ = request.end;
+    }
+    release();
+}
+
+void Transactions::finish() {
+    give_up_on_request("no answer before the end of the input");
+    release();
+}
+
+}  // namespace rtuscope

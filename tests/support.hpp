@@ -1,0 +1,129 @@
+// Helpers shared by the unit tests: frames with their CRC, chunks with timing, and a
+// framer + pairing harness that collects what comes out.
+#pragma once
+
+#include <initializer_list>
+#include <numeric>
+#include <vector>
+
+#include "rtuscope/chunk.hpp"
+#include "rtuscope/crc.hpp"
+#include "rtuscope/framer.hpp"
+#include "rtuscope/transactions.hpp"
+
+namespace rtuscope::test {
+
+using Bytes = std::vector<std::uint8_t>;
+
+// The bytes followed by their CRC-16/MODBUS, low byte first.
+inline Bytes with_crc(std::initializer_list<std::uint8_t> body) {
+    Bytes frame(body);
+    const std::uint16_t crc = crc16_modbus(frame);
+    frame.push_back(static_cast<std::uint8_t>(crc & 0xFF));
+    frame.push_back(static_cast<std::uint8_t>(crc >> 8));
+    return frame;
+}
+
+inline Bytes concat(std::initializer_list<Bytes> parts) {
+    Bytes all;
+    for (const Bytes& p : parts) all.insert(all.end(), p.begin(), p.end());
+    return all;
+}
+
+inline constexpr Nanos kMs = 1'000'000;
+
+// Builds a chunk stream on a simulated 9600 8N1 line.
+class Line {
+public:
+    explicit Line(LineSettings settings = {}) : char_(settings.char_time()) {}
+
+    // Bytes sent back to back, delivered one byte per chunk (a logic analyser).
+    Line& send_per_byte(const Bytes& bytes) {
+        for (std::uint8_t b : bytes) {
+            now_ += char_;
+            chunks_.push_back({now_, "", {b}, 0});
+        }
+        return *this;
+    }
+    // Bytes sent back to back, delivered as one chunk when the last has arrived.
+    Line& send_chunk(const Bytes& bytes) {
+        now_ += char_ * static_cast<Nanos>(bytes.size());
+        chunks_.push_back({now_, "", bytes, 0});
+        return *this;
+    }
+    Line& silence(double characters) {
+        now_ += static_cast<Nanos>(characters * static_cast<double>(char_));
+        return *this;
+    }
+    Line& silence_ms(double ms) {
+        now_ += static_cast<Nanos>(ms * 1e6);
+        return *this;
+    }
+    // A chunk handed over at an absolute time (USB batching).
+    Line& deliver_at(Nanos time, const Bytes& bytes) {
+        now_ = time;
+        chunks_.push_back({time, "", bytes, 0});
+        return *this;
+    }
+    [[nodiscard]] const std::vector<Chunk>& chunks() const { return chunks_; }
+    [[nodiscard]] Nanos char_time() const { return char_; }
+
+private:
+    Nanos char_;
+    Nanos now_ = 0;
+    std::vector<Chunk> chunks_;
+};
+
+// Framer and pairing wired as in the pipeline; records collected in order.
+struct Harness {
+    explicit Harness(bool chunk_is_frame = false)
+        : transactions({kNanosPerSecond, &standard_rules()},
+                       [this](Record&& r) { records.push_back(std::move(r)); }),
+          framer(
+              [&] {
+                  FramerOptions o;
+                  o.chunk_is_frame = chunk_is_frame;
+                  o.expectation = &transactions;
+                  return o;
+              }(),
+              [this](Frame&& f) { transactions.push(std::move(f)); }) {}
+
+    std::vector<Record>& run(const std::vector<Chunk>& chunks) {
+        for (const Chunk& c : chunks) {
+            input_bytes += c.bytes.size();
+            framer.push(c);
+        }
+        framer.finish();
+        transactions.finish();
+        return records;
+    }
+    // Untimed bytes in chunks of `chunk` bytes, like a raw dump.
+    std::vector<Record>& run_raw(const Bytes& bytes, std::size_t chunk = 4096) {
+        std::vector<Chunk> chunks;
+        for (std::size_t i = 0; i < bytes.size(); i += chunk) {
+            Chunk c;
+            c.bytes.assign(bytes.begin() + static_cast<std::ptrdiff_t>(i),
+                           bytes.begin() + static_cast<std::ptrdiff_t>(std::min(bytes.size(), i + chunk)));
+            chunks.push_back(std::move(c));
+        }
+        return run(chunks);
+    }
+    [[nodiscard]] std::size_t output_bytes() const {
+        return std::accumulate(records.begin(), records.end(), std::size_t{0},
+                               [](std::size_t n, const Record& r) { return n + r.frame.bytes.size(); });
+    }
+
+    std::vector<Record> records;
+    std::size_t input_bytes = 0;
+    Transactions transactions;
+    Framer framer;
+};
+
+inline bool has_note(const Record& r, const char* id) {
+    for (const Note& n : r.notes) {
+        if (std::string_view(n.id) == id) return true;
+    }
+    return false;
+}
+
+}  // namespace rtuscope::test

@@ -1,0 +1,293 @@
+// The framer on each real-world case of issue #2, fed through the pairing stage as in the
+// pipeline (the pairing tells the framer which answer the bus awaits).
+#include "rtuscope/framer.hpp"
+
+#include <gtest/gtest.h>
+
+#include "support.hpp"
+
+namespace rtuscope {
+namespace {
+
+using test::Bytes;
+using test::concat;
+using test::Harness;
+using test::has_note;
+using test::kMs;
+using test::Line;
+using test::with_crc;
+
+const Bytes kRead = with_crc({0x01, 0x03, 0x00, 0x00, 0x00, 0x02});            // 8 bytes
+const Bytes kReadAnswer = with_crc({0x01, 0x03, 0x04, 0x17, 0xF8, 0x00, 0x2A});  // 9 bytes
+const Bytes kWrite = with_crc({0x02, 0x06, 0x00, 0x01, 0x00, 0x03});           // echo
+const Bytes kWriteMany = with_crc({0x03, 0x10, 0x00, 0x01, 0x00, 0x02, 0x04, 0x00, 0x0A, 0x01, 0x02});
+const Bytes kWriteManyAnswer = with_crc({0x03, 0x10, 0x00, 0x01, 0x00, 0x02});
+
+void expect_frame(const Record& r, const Bytes& bytes, Kind kind) {
+    EXPECT_EQ(r.frame.bytes, bytes);
+    EXPECT_EQ(r.kind, kind) << "record " << r.number << " is " << to_string(r.kind);
+    EXPECT_EQ(r.frame.crc.status, CrcStatus::ok);
+}
+
+void expect_noise(const Record& r, const Bytes& bytes) {
+    EXPECT_EQ(r.kind, Kind::noise);
+    EXPECT_EQ(r.frame.bytes, bytes);
+}
+
+// Case 1: a USB adapter hands bytes over in 16 ms batches.
+TEST(Framer, UsbBatchesWithRequestAndAnswerInOneChunk) {
+    Line line;
+    line.deliver_at(16 * kMs, concat({kRead, kReadAnswer}))
+        .deliver_at(48 * kMs, concat({kWrite, Bytes(kWrite.begin(), kWrite.begin() + 3)}))
+        .deliver_at(64 * kMs, Bytes(kWrite.begin() + 3, kWrite.end()))
+        .deliver_at(96 * kMs, Bytes(kWriteMany.begin(), kWriteMany.begin() + 5))
+        .deliver_at(112 * kMs, concat({Bytes(kWriteMany.begin() + 5, kWriteMany.end()),
+                                       kWriteManyAnswer}));
+    Harness h;
+    const auto& r = h.run(line.chunks());
+    ASSERT_EQ(r.size(), 6U);
+    expect_frame(r[0], kRead, Kind::request);
+    expect_frame(r[1], kReadAnswer, Kind::response);
+    EXPECT_EQ(r[1].request_number, 1U);
+    expect_frame(r[2], kWrite, Kind::request);
+    expect_frame(r[3], kWrite, Kind::response);  // the echo, split over two batches
+    EXPECT_EQ(r[3].request_number, 3U);
+    expect_frame(r[4], kWriteMany, Kind::request);
+    expect_frame(r[5], kWriteManyAnswer, Kind::response);
+    EXPECT_EQ(h.output_bytes(), h.input_bytes);
+    // Batching hides the real silences: no timing complaints from it.
+    for (const Record& rec : r) {
+        EXPECT_FALSE(has_note(rec, note_id::gap_inside)) << rec.number;
+        EXPECT_FALSE(has_note(rec, note_id::short_gap)) << rec.number;
+    }
+}
+
+// Case 2: a slave that answers 2.5-3 character times after the request (< t3.5).
+TEST(Framer, FastAnswerBelowT35IsStillTwoFrames) {
+    Line line;
+    line.silence(10).send_per_byte(kRead).silence(2.7).send_per_byte(kReadAnswer).silence(50);
+    line.send_per_byte(kWrite).silence(2.5).send_per_byte(kWrite);
+    Harness h;
+    const auto& r = h.run(line.chunks());
+    ASSERT_EQ(r.size(), 4U);
+    expect_frame(r[0], kRead, Kind::request);
+    expect_frame(r[1], kReadAnswer, Kind::response);
+    EXPECT_TRUE(has_note(r[1], note_id::short_gap));
+    EXPECT_FALSE(has_note(r[0], note_id::short_gap));
+    expect_frame(r[2], kWrite, Kind::request);
+    expect_frame(r[3], kWrite, Kind::response);
+    EXPECT_TRUE(has_note(r[3], note_id::short_gap));
+    EXPECT_GT(r[1].latency, 2 * line.char_time());
+    EXPECT_LT(r[1].latency, 3 * line.char_time());
+}
+
+// Case 3: a junk byte when the driver switches off. `01 03 04 00 00 02` + CRC + 00 also
+// passes as a 9-byte FC03 answer with byte count 4; nothing awaits an answer, so it is
+// the request, and the 00 is noise.
+TEST(Framer, JunkZeroAfterRequestThatAlsoReadsAsAnswer) {
+    const Bytes request = with_crc({0x01, 0x03, 0x04, 0x00, 0x00, 0x02});
+    const Bytes answer = with_crc({0x01, 0x03, 0x04, 0x00, 0x64, 0x00, 0xC8});
+    ASSERT_EQ(check_crc(concat({request, {0x00}})).status, CrcStatus::ok);  // the trap
+
+    Line line;
+    line.silence(10).send_per_byte(concat({request, {0x00}})).silence(5);
+    line.send_per_byte(concat({answer, {0xFE}})).silence(20);
+    Harness h;
+    const auto& r = h.run(line.chunks());
+    ASSERT_EQ(r.size(), 4U);
+    expect_frame(r[0], request, Kind::request);
+    expect_noise(r[1], {0x00});
+    expect_frame(r[2], answer, Kind::response);
+    EXPECT_EQ(r[2].request_number, 1U);
+    expect_noise(r[3], {0xFE});
+}
+
+// The same bytes when slave 1 owes an answer to a read of 2 registers: the sequence says
+// answer, so they are read as the 9-byte answer.
+TEST(Framer, SequenceChoosesAnswerReadingWhenAnAnswerIsAwaited) {
+    const Bytes ambiguous = concat({with_crc({0x01, 0x03, 0x04, 0x00, 0x00, 0x02}), {0x00}});
+    Harness h;
+    const auto& r = h.run_raw(concat({kRead, ambiguous}));
+    ASSERT_EQ(r.size(), 2U);
+    expect_frame(r[0], kRead, Kind::request);
+    expect_frame(r[1], ambiguous, Kind::response);
+    EXPECT_EQ(r[1].request_number, 1U);
+}
+
+// Case 4: garbage before, between and after frames, some of it like a frame header.
+TEST(Framer, GarbageAroundFramesBecomesNoise) {
+    Line line;
+    line.send_chunk({0xFF, 0x13, 0x00}).silence(10);
+    line.send_chunk(concat({{0x01, 0x03}, kRead})).silence(4);           // header-like
+    line.send_chunk(concat({kReadAnswer, {0x05, 0x06, 0x00}})).silence(10);  // after, header-like
+    line.send_chunk(concat({{0x01, 0x03, 0x00}, kWrite})).silence(10);
+    line.send_chunk(kWrite).silence(10);
+    line.send_chunk({0xAA, 0x55, 0x01});
+    Harness h;
+    const auto& r = h.run(line.chunks());
+    ASSERT_EQ(r.size(), 9U);
+    expect_noise(r[0], {0xFF, 0x13, 0x00});
+    expect_noise(r[1], {0x01, 0x03});
+    expect_frame(r[2], kRead, Kind::request);
+    expect_frame(r[3], kReadAnswer, Kind::response);
+    expect_noise(r[4], {0x05, 0x06, 0x00});
+    expect_noise(r[5], {0x01, 0x03, 0x00});
+    expect_frame(r[6], kWrite, Kind::request);
+    expect_frame(r[7], kWrite, Kind::response);
+    expect_noise(r[8], {0xAA, 0x55, 0x01});
+    EXPECT_EQ(h.output_bytes(), h.input_bytes);
+}
+
+// Case 5: a transmission broken off, and the frame after it still found.
+TEST(Framer, TruncatedFrameThenNextFrameFound) {
+    Line line;
+    line.silence(10).send_per_byte(kRead).silence(4);
+    line.send_per_byte(Bytes(kReadAnswer.begin(), kReadAnswer.begin() + 4)).silence(100);
+    line.send_per_byte(kRead).silence(4).send_per_byte(kReadAnswer);
+    Harness h;
+    const auto& r = h.run(line.chunks());
+    ASSERT_EQ(r.size(), 4U);
+    expect_frame(r[0], kRead, Kind::request);
+    EXPECT_EQ(r[1].kind, Kind::invalid);
+    EXPECT_EQ(r[1].frame.bytes, Bytes(kReadAnswer.begin(), kReadAnswer.begin() + 4));
+    EXPECT_TRUE(has_note(r[1], note_id::truncated));
+    EXPECT_TRUE(has_note(r[0], note_id::no_answer));
+    expect_frame(r[2], kRead, Kind::request);
+    expect_frame(r[3], kReadAnswer, Kind::response);
+    EXPECT_EQ(r[3].request_number, 3U);
+}
+
+// Case 6: raw bytes with no timing at all: length and CRC only.
+TEST(Framer, RawBytesWithoutTiming) {
+    const Bytes exception = with_crc({0x01, 0x83, 0x02});
+    const Bytes stream = concat({{0x00}, kRead, kReadAnswer, {0x00}, kWriteMany, kWriteManyAnswer,
+                                 {0x12, 0x34}, kRead, exception, {0xFE}});
+    for (std::size_t chunk : {std::size_t{4096}, std::size_t{1}, std::size_t{5}}) {
+        Harness h;
+        const auto& r = h.run_raw(stream, chunk);
+        ASSERT_EQ(r.size(), 10U) << "chunk size " << chunk;
+        expect_noise(r[0], {0x00});
+        expect_frame(r[1], kRead, Kind::request);
+        expect_frame(r[2], kReadAnswer, Kind::response);
+        expect_noise(r[3], {0x00});
+        expect_frame(r[4], kWriteMany, Kind::request);
+        expect_frame(r[5], kWriteManyAnswer, Kind::response);
+        expect_noise(r[6], {0x12, 0x34});
+        expect_frame(r[7], kRead, Kind::request);
+        expect_frame(r[8], exception, Kind::exception);
+        EXPECT_EQ(r[8].request_number, 8U);
+        expect_noise(r[9], {0xFE});
+        EXPECT_FALSE(has_time(r[1].frame.start));
+    }
+}
+
+// Case 8: lengths no field gives: FC08 sub-function 0000 echoes any data; vendor codes.
+TEST(Framer, UnknownLengthsFoundByCrcBoundedByGaps) {
+    const Bytes echo = with_crc({0x04, 0x08, 0x00, 0x00, 0xA5, 0x37, 0x11, 0x22, 0x33});
+    const Bytes vendor = with_crc({0x05, 0x41, 0x01, 0x02, 0x03});
+    const Bytes vendor_answer = with_crc({0x05, 0x41, 0x10, 0x20, 0x30, 0x40, 0x50, 0x60});
+    Line line;
+    line.silence(10).send_per_byte(echo).silence(5).send_per_byte(echo).silence(20);
+    line.send_per_byte(vendor).silence(5).send_per_byte(vendor_answer).silence(20);
+    line.send_per_byte(kRead).silence(5).send_per_byte(kReadAnswer);
+    Harness h;
+    const auto& r = h.run(line.chunks());
+    ASSERT_EQ(r.size(), 6U);
+    expect_frame(r[0], echo, Kind::request);
+    expect_frame(r[1], echo, Kind::response);
+    EXPECT_EQ(r[1].frame.delimiter, Delimiter::crc_search);
+    expect_frame(r[2], vendor, Kind::request);
+    expect_frame(r[3], vendor_answer, Kind::response);
+    EXPECT_EQ(r[3].request_number, 3U);
+    expect_frame(r[4], kRead, Kind::request);
+    expect_frame(r[5], kReadAnswer, Kind::response);
+}
+
+TEST(Framer, UnknownLengthsWithoutTimingStillFound) {
+    const Bytes vendor = with_crc({0x05, 0x41, 0x01, 0x02, 0x03});
+    Harness h;
+    const auto& r = h.run_raw(concat({kRead, kReadAnswer, vendor, kWrite}));
+    ASSERT_EQ(r.size(), 4U);
+    expect_frame(r[2], vendor, Kind::request);
+    expect_frame(r[3], kWrite, Kind::request);
+}
+
+TEST(Framer, BadCrcBetweenGapsIsInvalidAndSwappedCrcIsAFrame) {
+    Bytes corrupt = kRead;
+    corrupt[7] ^= 0x40;
+    Bytes swapped = kReadAnswer;
+    std::swap(swapped[7], swapped[8]);
+    Line line;
+    line.silence(10).send_per_byte(corrupt).silence(5).send_per_byte(kReadAnswer).silence(20);
+    line.send_per_byte(kRead).silence(5).send_per_byte(swapped);
+    Harness h;
+    const auto& r = h.run(line.chunks());
+    ASSERT_EQ(r.size(), 4U);
+    EXPECT_EQ(r[0].kind, Kind::invalid);
+    EXPECT_EQ(r[0].frame.bytes, corrupt);
+    EXPECT_EQ(r[0].frame.crc.status, CrcStatus::bad);
+    EXPECT_TRUE(has_note(r[0], note_id::crc_mismatch));
+    EXPECT_EQ(r[1].kind, Kind::response);
+    EXPECT_TRUE(has_note(r[1], note_id::unsolicited));  // its request was unreadable
+    EXPECT_EQ(r[3].kind, Kind::response);
+    EXPECT_EQ(r[3].frame.crc.status, CrcStatus::swapped);
+    EXPECT_EQ(r[3].request_number, 3U);
+}
+
+TEST(Framer, BadCrcWithoutTimingIsInvalidWhenTheNextFrameFollowsAtItsLength) {
+    Bytes corrupt = kRead;
+    corrupt[7] ^= 0x01;
+    Harness h;
+    const auto& r = h.run_raw(concat({corrupt, kRead, kReadAnswer}));
+    ASSERT_EQ(r.size(), 3U);
+    EXPECT_EQ(r[0].kind, Kind::invalid);
+    EXPECT_EQ(r[0].frame.bytes, corrupt);
+}
+
+TEST(Framer, GapInsideAFrameIsNoted) {
+    Line line;
+    line.silence(10).send_per_byte(Bytes(kRead.begin(), kRead.begin() + 4)).silence(2.5);
+    line.send_per_byte(Bytes(kRead.begin() + 4, kRead.end()));
+    Harness h;
+    const auto& r = h.run(line.chunks());
+    ASSERT_EQ(r.size(), 1U);
+    expect_frame(r[0], kRead, Kind::request);
+    EXPECT_TRUE(has_note(r[0], note_id::gap_inside));
+}
+
+TEST(Framer, HexLinesAreOneFrameEachRightOrWrong) {
+    Bytes bad = kReadAnswer;
+    bad[5] ^= 0xFF;
+    std::vector<Chunk> lines{{kNoTime, "", kRead, 1}, {kNoTime, "", bad, 2},
+                             {kNoTime, "", {0x01, 0x03, 0x00}, 3}};
+    Harness h(true);
+    const auto& r = h.run(lines);
+    ASSERT_EQ(r.size(), 3U);
+    expect_frame(r[0], kRead, Kind::request);
+    EXPECT_EQ(r[1].kind, Kind::invalid);
+    EXPECT_EQ(r[1].frame.crc.status, CrcStatus::bad);
+    EXPECT_EQ(r[1].frame.source_line, 2);
+    EXPECT_EQ(r[2].kind, Kind::invalid);
+}
+
+// Every byte of arbitrary input lands in exactly one record, whatever the chunking.
+TEST(Framer, EveryByteInExactlyOneRecord) {
+    std::uint32_t state = 12345;
+    Bytes junk;
+    for (int i = 0; i < 5000; ++i) {
+        state = state * 1103515245U + 12345U;
+        junk.push_back(static_cast<std::uint8_t>(state >> 16));
+        if (i % 97 == 0) junk.insert(junk.end(), kRead.begin(), kRead.end());
+    }
+    for (std::size_t chunk : {std::size_t{1}, std::size_t{7}, std::size_t{4096}}) {
+        Harness h;
+        h.run_raw(junk, chunk);
+        EXPECT_EQ(h.output_bytes(), junk.size()) << "chunk size " << chunk;
+        for (std::size_t i = 1; i < h.records.size(); ++i) {
+            EXPECT_EQ(h.records[i].number, h.records[i - 1].number + 1);
+        }
+    }
+}
+
+}  // namespace
+}  // namespace rtuscope

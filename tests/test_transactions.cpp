@@ -1,0 +1,145 @@
+// Pairing: requests with their answers, turnaround, exceptions, broadcasts, requests
+// without answer, answers without request, echoes told apart by order and timing.
+#include "rtuscope/transactions.hpp"
+
+#include <gtest/gtest.h>
+
+#include "support.hpp"
+
+namespace rtuscope {
+namespace {
+
+using test::Bytes;
+using test::Harness;
+using test::has_note;
+using test::kMs;
+using test::Line;
+using test::with_crc;
+
+const Bytes kRead = with_crc({0x01, 0x03, 0x00, 0x00, 0x00, 0x02});
+const Bytes kReadAnswer = with_crc({0x01, 0x03, 0x04, 0x17, 0xF8, 0x00, 0x2A});
+const Bytes kWrite = with_crc({0x02, 0x06, 0x00, 0x01, 0x00, 0x03});
+
+TEST(Transactions, PairsAnswerAndMeasuresTurnaround) {
+    Line line;
+    line.silence(10).send_per_byte(kRead).silence_ms(19.5).send_per_byte(kReadAnswer);
+    Harness h;
+    const auto& r = h.run(line.chunks());
+    ASSERT_EQ(r.size(), 2U);
+    EXPECT_EQ(r[0].kind, Kind::request);
+    EXPECT_EQ(r[1].kind, Kind::response);
+    EXPECT_EQ(r[1].request_number, r[0].number);
+    EXPECT_EQ(r[1].request, kRead);
+    EXPECT_NEAR(static_cast<double>(r[1].latency) / 1e6, 19.5, 0.01);
+}
+
+TEST(Transactions, ExceptionPairsWithItsRequest) {
+    const Bytes exception = with_crc({0x01, 0x83, 0x02});
+    Line line;
+    line.silence(10).send_per_byte(kRead).silence(5).send_per_byte(exception);
+    Harness h;
+    const auto& r = h.run(line.chunks());
+    ASSERT_EQ(r.size(), 2U);
+    EXPECT_EQ(r[1].kind, Kind::exception);
+    EXPECT_EQ(r[1].request_number, 1U);
+}
+
+TEST(Transactions, NoAnswerWithinTimeout) {
+    Line line;
+    line.silence(10).send_per_byte(kRead).silence_ms(1500).send_per_byte(kReadAnswer);
+    Harness h;
+    const auto& r = h.run(line.chunks());
+    ASSERT_EQ(r.size(), 2U);
+    EXPECT_TRUE(has_note(r[0], note_id::no_answer));
+    EXPECT_EQ(r[0].notes.back().text, "no answer within 1 s");
+    EXPECT_EQ(r[1].kind, Kind::response);
+    EXPECT_EQ(r[1].request_number, 0U);
+    EXPECT_TRUE(has_note(r[1], note_id::unsolicited));
+}
+
+TEST(Transactions, NextRequestEndsTheWaitAndOrderIsKept) {
+    const Bytes other = with_crc({0x07, 0x03, 0x00, 0x00, 0x00, 0x01});
+    Line line;
+    line.silence(10).send_per_byte(other).silence(50).send_chunk({0xEE}).silence(50);
+    line.send_per_byte(kRead).silence(5).send_per_byte(kReadAnswer);
+    Harness h;
+    const auto& r = h.run(line.chunks());
+    ASSERT_EQ(r.size(), 4U);
+    EXPECT_EQ(r[0].frame.bytes, other);
+    EXPECT_TRUE(has_note(r[0], note_id::no_answer));
+    EXPECT_EQ(r[1].kind, Kind::noise);
+    EXPECT_EQ(r[2].number, 3U);
+    EXPECT_EQ(r[3].request_number, 3U);
+    EXPECT_FALSE(has_note(r[2], note_id::no_answer));
+}
+
+TEST(Transactions, UnansweredAtEndOfInput) {
+    Harness h;
+    const auto& r = h.run_raw(kRead);
+    ASSERT_EQ(r.size(), 1U);
+    EXPECT_TRUE(has_note(r[0], note_id::no_answer));
+}
+
+TEST(Transactions, BroadcastExpectsNoAnswer) {
+    const Bytes broadcast = with_crc({0x00, 0x06, 0x00, 0x01, 0x00, 0x05});
+    Line line;
+    line.silence(10).send_per_byte(broadcast).silence(100).send_per_byte(kRead);
+    line.silence(5).send_per_byte(kReadAnswer);
+    Harness h;
+    const auto& r = h.run(line.chunks());
+    ASSERT_EQ(r.size(), 3U);
+    EXPECT_EQ(r[0].kind, Kind::broadcast);
+    EXPECT_FALSE(has_note(r[0], note_id::no_answer));
+    EXPECT_EQ(r[2].request_number, 2U);
+}
+
+TEST(Transactions, EchoesToldApartByOrder) {
+    // Write single register: the answer is byte for byte the request.
+    Line line;
+    line.silence(10).send_per_byte(kWrite).silence(5).send_per_byte(kWrite).silence(100);
+    line.send_per_byte(kWrite).silence(5).send_per_byte(kWrite);
+    Harness h;
+    const auto& r = h.run(line.chunks());
+    ASSERT_EQ(r.size(), 4U);
+    EXPECT_EQ(r[0].kind, Kind::request);
+    EXPECT_EQ(r[1].kind, Kind::response);
+    EXPECT_EQ(r[2].kind, Kind::request);
+    EXPECT_EQ(r[3].kind, Kind::response);
+    EXPECT_EQ(r[3].request_number, 3U);
+}
+
+TEST(Transactions, EchoAfterTimeoutIsANewRequest) {
+    Line line;
+    line.silence(10).send_per_byte(kWrite).silence_ms(1200).send_per_byte(kWrite);
+    Harness h;
+    const auto& r = h.run(line.chunks());
+    ASSERT_EQ(r.size(), 2U);
+    EXPECT_EQ(r[0].kind, Kind::request);
+    EXPECT_TRUE(has_note(r[0], note_id::no_answer));
+    EXPECT_EQ(r[1].kind, Kind::request);
+}
+
+TEST(Transactions, RetryOfTheSameReadIsARequest) {
+    Line line;
+    line.silence(10).send_per_byte(kRead).silence_ms(300).send_per_byte(kRead);
+    line.silence(5).send_per_byte(kReadAnswer);
+    Harness h;
+    const auto& r = h.run(line.chunks());
+    ASSERT_EQ(r.size(), 3U);
+    EXPECT_EQ(r[1].kind, Kind::request);
+    EXPECT_TRUE(has_note(r[0], note_id::no_answer));
+    EXPECT_EQ(r[2].request_number, 2U);
+}
+
+TEST(Transactions, AnswerFromAnotherSlaveIsUnsolicited) {
+    const Bytes stray = with_crc({0x09, 0x03, 0x02, 0x00, 0x01});
+    Harness h;
+    const auto& r = h.run_raw(test::concat({stray, kRead, kReadAnswer}));
+    ASSERT_EQ(r.size(), 3U);
+    EXPECT_EQ(r[0].kind, Kind::response);
+    EXPECT_TRUE(has_note(r[0], note_id::unsolicited));
+    EXPECT_EQ(r[2].request_number, 2U);
+}
+
+}  // namespace
+}  // namespace rtuscope
