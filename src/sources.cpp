@@ -1,0 +1,276 @@
+// Stage 1, sources: opening inputs, guessing their format, and the buffered input the
+// readers share. The readers themselves live in capture_reader.cpp, raw_reader.cpp and
+// hex_reader.cpp.
+#include "rtuscope/sources.hpp"
+
+#include <fcntl.h>
+#include <fmt/format.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cstring>
+
+#include "readers.hpp"
+
+namespace rtuscope {
+namespace detail {
+
+namespace {
+constexpr std::size_t kBlockBytes = std::size_t{64} << 10;
+}  // namespace
+
+InputBuffer::InputBuffer(std::string initial, std::FILE* file, bool close_file, std::string name)
+    : buf_(std::move(initial)),
+      end_(buf_.size()),
+      file_(file),
+      close_file_(close_file),
+      eof_(file == nullptr),
+      name_(std::move(name)) {}
+
+InputBuffer::~InputBuffer() {
+    if (close_file_ && file_ != nullptr) std::fclose(file_);
+}
+
+Result<bool> InputBuffer::fill() {
+    if (eof_) return false;
+    if (pos_ > 0) {
+        std::memmove(buf_.data(), buf_.data() + pos_, end_ - pos_);
+        end_ -= pos_;
+        scan_ -= pos_;
+        pos_ = 0;
+    }
+    // The sniffed head is only 4 KiB; reading on in pieces that small would be slow.
+    if (buf_.size() < kBlockBytes) {
+        buf_.resize(kBlockBytes);
+    } else if (end_ == buf_.size()) {
+        buf_.resize(buf_.size() * 2);
+    }
+    const std::size_t n = std::fread(buf_.data() + end_, 1, buf_.size() - end_, file_);
+    end_ += n;
+    if (n == 0) {
+        if (std::ferror(file_) != 0) {
+            return Error{fmt::format("cannot read: {}", std::strerror(errno)), name_};
+        }
+        eof_ = true;
+        return false;
+    }
+    return true;
+}
+
+Result<bool> InputBuffer::next_line(std::string_view& line) {
+    for (;;) {
+        const void* found =
+            scan_ < end_ ? std::memchr(buf_.data() + scan_, '\n', end_ - scan_) : nullptr;
+        std::size_t stop = end_;
+        if (found != nullptr) {
+            stop = static_cast<std::size_t>(static_cast<const char*>(found) - buf_.data());
+        } else {
+            scan_ = end_;
+        }
+        if (stop - pos_ > kMaxLineBytes) {
+            return Error{
+                fmt::format("line longer than {} bytes; is this a text file?", kMaxLineBytes),
+                name_, line_ + 1};
+        }
+        if (found == nullptr) {
+            Result<bool> more = fill();
+            if (!more) return more.error();
+            if (*more) continue;
+            if (pos_ == end_) return false;  // the input ended with '\n' or was empty
+            stop = end_;                     // fill() may have moved the bytes
+        }
+        line = std::string_view(buf_.data() + pos_, stop - pos_);
+        pos_ = scan_ = found != nullptr ? stop + 1 : stop;
+        if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
+        ++line_;
+        return true;
+    }
+}
+
+Result<bool> InputBuffer::next_block(std::size_t max, std::string_view& block) {
+    if (pos_ == end_) {
+        Result<bool> more = fill();
+        if (!more) return more.error();
+        if (!*more) return false;
+    }
+    const std::size_t n = std::min(max, end_ - pos_);
+    block = std::string_view(buf_.data() + pos_, n);
+    pos_ += n;
+    scan_ = std::max(scan_, pos_);
+    return true;
+}
+
+std::string quote_token(std::string_view token) {
+    constexpr std::size_t kShown = 40;
+    std::string out = "\"";
+    for (std::size_t i = 0; i < token.size() && i < kShown; ++i) {
+        const auto c = static_cast<unsigned char>(token[i]);
+        if (c < 0x20 || c >= 0x7F || c == '"' || c == '\\') {
+            out += fmt::format("\\x{:02X}", c);
+        } else {
+            out += static_cast<char>(c);
+        }
+    }
+    if (token.size() > kShown) out += "...";
+    out += '"';
+    return out;
+}
+
+}  // namespace detail
+
+namespace {
+
+constexpr std::size_t kSniffBytes = 4096;
+constexpr std::string_view kUtf8Bom = "\xEF\xBB\xBF";
+
+// A sequence cut off by the end of `text` counts as valid: the sniffed head of a file
+// ends wherever 4 KiB ends.
+bool valid_utf8(std::string_view text) {
+    std::size_t i = 0;
+    const std::size_t n = text.size();
+    while (i < n) {
+        const auto c = static_cast<unsigned char>(text[i]);
+        if (c < 0x80) {
+            ++i;
+            continue;
+        }
+        std::size_t len = 0;
+        unsigned char lo = 0x80;
+        unsigned char hi = 0xBF;
+        if (c >= 0xC2 && c <= 0xDF) {
+            len = 2;
+        } else if (c >= 0xE0 && c <= 0xEF) {
+            len = 3;
+            if (c == 0xE0) lo = 0xA0;  // overlong
+            if (c == 0xED) hi = 0x9F;  // surrogates
+        } else if (c >= 0xF0 && c <= 0xF4) {
+            len = 4;
+            if (c == 0xF0) lo = 0x90;  // overlong
+            if (c == 0xF4) hi = 0x8F;  // above U+10FFFF
+        } else {
+            return false;
+        }
+        for (std::size_t k = 1; k < len; ++k) {
+            if (i + k >= n) return true;
+            const auto d = static_cast<unsigned char>(text[i + k]);
+            if (d < (k == 1 ? lo : 0x80) || d > (k == 1 ? hi : 0xBF)) return false;
+        }
+        i += len;
+    }
+    return true;
+}
+
+Result<std::unique_ptr<ChunkSource>> make_source(std::unique_ptr<detail::InputBuffer> in,
+                                                 InputFormat format) {
+    switch (format) {
+        case InputFormat::capture:
+            return detail::make_capture_reader(std::move(in));
+        case InputFormat::hex:
+            return detail::make_hex_reader(std::move(in));
+        case InputFormat::raw:
+        case InputFormat::automatic:
+            break;
+    }
+    return detail::make_raw_reader(std::move(in));
+}
+
+}  // namespace
+
+Result<InputFormat> parse_input_format(std::string_view name) {
+    if (name == "auto") return InputFormat::automatic;
+    if (name == "capture") return InputFormat::capture;
+    if (name == "raw") return InputFormat::raw;
+    if (name == "hex") return InputFormat::hex;
+    return Error{fmt::format("unknown input format {} (expected auto, capture, raw or hex)",
+                             detail::quote_token(name))};
+}
+
+const char* to_string(InputFormat format) {
+    switch (format) {
+        case InputFormat::automatic:
+            return "auto";
+        case InputFormat::capture:
+            return "capture";
+        case InputFormat::raw:
+            return "raw";
+        case InputFormat::hex:
+            return "hex";
+    }
+    return "?";
+}
+
+InputFormat detect_input_format(std::string_view head) {
+    if (head.starts_with(kUtf8Bom)) head.remove_prefix(kUtf8Bom.size());
+    if (head.starts_with("# rtuscope capture")) return InputFormat::capture;
+    for (const char ch : head) {
+        const auto c = static_cast<unsigned char>(ch);
+        if ((c < 0x20 && c != '\t' && c != '\r' && c != '\n') || c == 0x7F) {
+            return InputFormat::raw;
+        }
+    }
+    if (!valid_utf8(head)) return InputFormat::raw;
+    while (!head.empty()) {
+        const std::size_t nl = head.find('\n');
+        std::string_view line = head.substr(0, nl);
+        head.remove_prefix(nl == std::string_view::npos ? head.size() : nl + 1);
+        if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
+        if (detail::is_blank_or_comment(line)) continue;
+        if (detail::scan_hex_line(line, nullptr).byte_count >= 3) return InputFormat::hex;
+    }
+    return InputFormat::raw;
+}
+
+Result<std::unique_ptr<ChunkSource>> open_source(const std::string& path, InputFormat format) {
+    std::FILE* file = stdin;
+    const bool is_stdin = path == "-";
+    if (!is_stdin) {
+        const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+        if (fd < 0) return Error{fmt::format("cannot open: {}", std::strerror(errno)), path};
+        struct stat st {};
+        if (::fstat(fd, &st) != 0) {
+            const int err = errno;
+            ::close(fd);
+            return Error{fmt::format("cannot open: {}", std::strerror(err)), path};
+        }
+        if (S_ISDIR(st.st_mode)) {
+            ::close(fd);
+            return Error{"is a directory", path};
+        }
+        file = ::fdopen(fd, "rb");
+        if (file == nullptr) {
+            const int err = errno;
+            ::close(fd);
+            return Error{fmt::format("cannot open: {}", std::strerror(err)), path};
+        }
+    }
+    // Sniffed bytes are kept and handed to the reader rather than seeking back, so pipes
+    // and stdin work the same as files.
+    std::string head;
+    if (format == InputFormat::automatic) {
+        head.resize(kSniffBytes);
+        const std::size_t n = std::fread(head.data(), 1, head.size(), file);
+        if (n < head.size() && std::ferror(file) != 0) {
+            const int err = errno;
+            if (!is_stdin) std::fclose(file);
+            return Error{fmt::format("cannot read: {}", std::strerror(err)), path};
+        }
+        head.resize(n);
+        format = detect_input_format(head);
+    }
+    auto in = std::make_unique<detail::InputBuffer>(std::move(head), file, !is_stdin, path);
+    return make_source(std::move(in), format);
+}
+
+Result<std::unique_ptr<ChunkSource>> source_from_memory(std::string content, std::string name,
+                                                        InputFormat format) {
+    if (format == InputFormat::automatic) {
+        format = detect_input_format(std::string_view(content).substr(0, kSniffBytes));
+    }
+    auto in =
+        std::make_unique<detail::InputBuffer>(std::move(content), nullptr, false, std::move(name));
+    return make_source(std::move(in), format);
+}
+
+}  // namespace rtuscope

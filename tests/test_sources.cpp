@@ -1,0 +1,745 @@
+#include <fcntl.h>
+#include <gtest/gtest.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "rtuscope/sources.hpp"
+
+namespace rtuscope {
+namespace {
+
+using Bytes = std::vector<std::uint8_t>;
+
+struct Drained {
+    std::vector<Chunk> chunks;
+    std::optional<Error> error;
+};
+
+Drained drain(ChunkSource& source) {
+    Drained d;
+    for (;;) {
+        Chunk chunk;
+        Result<bool> more = source.next(chunk);
+        if (!more) {
+            d.error = more.error();
+            return d;
+        }
+        if (!*more) return d;
+        d.chunks.push_back(std::move(chunk));
+    }
+}
+
+std::unique_ptr<ChunkSource> from_memory(std::string text, InputFormat format,
+                                         std::string name = "cap.rtucap") {
+    auto source = source_from_memory(std::move(text), std::move(name), format);
+    if (!source) {
+        ADD_FAILURE() << source.error().to_string();
+        return nullptr;
+    }
+    return std::move(*source);
+}
+
+Drained read_all(std::string text, InputFormat format, std::string name = "cap.rtucap") {
+    auto source = from_memory(std::move(text), format, std::move(name));
+    if (!source) return {};
+    return drain(*source);
+}
+
+// The first error the text gives, whether at open or while reading.
+std::string error_text(std::string text, InputFormat format = InputFormat::capture) {
+    auto source = source_from_memory(std::move(text), "cap.rtucap", format);
+    if (!source) return source.error().to_string();
+    Drained d = drain(**source);
+    return d.error ? d.error->to_string() : "(no error)";
+}
+
+std::string capture(const std::string& body) {
+    return "# rtuscope capture v1\n" + body;
+}
+
+// A file in a fresh temporary directory, removed with it.
+class TempDir {
+  public:
+    TempDir() {
+        path_ = std::filesystem::temp_directory_path() /
+                ("rtuscope_test_sources_" + std::to_string(::getpid()) + "_" +
+                 std::to_string(counter_++));
+        std::filesystem::remove_all(path_);
+        std::filesystem::create_directories(path_);
+    }
+    ~TempDir() {
+        std::error_code ec;
+        std::filesystem::permissions(path_, std::filesystem::perms::owner_all, ec);
+        std::filesystem::remove_all(path_, ec);
+    }
+    TempDir(const TempDir&) = delete;
+    TempDir& operator=(const TempDir&) = delete;
+
+    std::string write(const std::string& name, const std::string& content) const {
+        const std::string file = (path_ / name).string();
+        std::ofstream(file, std::ios::binary) << content;
+        return file;
+    }
+    [[nodiscard]] std::string path() const { return path_.string(); }
+
+  private:
+    static inline int counter_ = 0;
+    std::filesystem::path path_;
+};
+
+// --- formats and names ------------------------------------------------------------------
+
+TEST(SourcesInputFormat, ParsesNamesAndRejectsOthers) {
+    EXPECT_EQ(*parse_input_format("capture"), InputFormat::capture);
+    EXPECT_EQ(*parse_input_format("raw"), InputFormat::raw);
+    EXPECT_EQ(*parse_input_format("hex"), InputFormat::hex);
+    EXPECT_EQ(*parse_input_format("auto"), InputFormat::automatic);
+    auto bad = parse_input_format("pcap");
+    ASSERT_FALSE(bad.ok());
+    EXPECT_EQ(bad.error().to_string(),
+              "unknown input format \"pcap\" (expected auto, capture, raw or hex)");
+    EXPECT_STREQ(to_string(InputFormat::capture), "capture");
+    EXPECT_STREQ(to_string(InputFormat::raw), "raw");
+    EXPECT_STREQ(to_string(InputFormat::hex), "hex");
+    EXPECT_STREQ(to_string(InputFormat::automatic), "auto");
+}
+
+// --- capture format ---------------------------------------------------------------------
+
+TEST(CaptureReader, ReadsHeaderAndDataLines) {
+    auto source = from_memory(capture("# serial 19200 8E1\n"
+                                      "# a comment\n"
+                                      "\n"
+                                      "1763798400.022360 01 03 00 00 00 02 C4 0B\n"
+                                      "1763798400.038384 01 03 02 17 F8 B6 36\n"),
+                              InputFormat::capture);
+    ASSERT_TRUE(source);
+    const SourceInfo& info = source->info();
+    EXPECT_EQ(info.name, "cap.rtucap");
+    EXPECT_EQ(info.format, "capture");
+    EXPECT_TRUE(info.timed);
+    EXPECT_FALSE(info.chunk_is_frame);
+    ASSERT_TRUE(info.line.has_value());
+    EXPECT_EQ(info.line->baud, 19200U);
+    EXPECT_EQ(info.line->data_bits, 8);
+    EXPECT_EQ(info.line->parity, 'E');
+    EXPECT_EQ(info.line->stop_bits, 1);
+
+    Drained d = drain(*source);
+    ASSERT_FALSE(d.error) << d.error->to_string();
+    ASSERT_EQ(d.chunks.size(), 2U);
+    EXPECT_EQ(d.chunks[0].time, 1763798400022360000);
+    EXPECT_EQ(d.chunks[0].bytes, (Bytes{0x01, 0x03, 0x00, 0x00, 0x00, 0x02, 0xC4, 0x0B}));
+    EXPECT_EQ(d.chunks[0].source_line, 5);
+    EXPECT_EQ(d.chunks[0].channel, "");
+    EXPECT_EQ(d.chunks[1].time, 1763798400038384000);
+    EXPECT_EQ(d.chunks[1].bytes, (Bytes{0x01, 0x03, 0x02, 0x17, 0xF8, 0xB6, 0x36}));
+    EXPECT_EQ(d.chunks[1].source_line, 6);
+}
+
+TEST(CaptureReader, NoSerialLineLeavesLineSettingsUnset) {
+    auto source = from_memory(capture("0.001 01\n"), InputFormat::capture);
+    ASSERT_TRUE(source);
+    EXPECT_FALSE(source->info().line.has_value());
+}
+
+TEST(CaptureReader, HeaderOnlyCaptureHasNoChunks) {
+    Drained d = read_all(capture("# serial 9600 8N1\n"), InputFormat::capture);
+    EXPECT_FALSE(d.error);
+    EXPECT_TRUE(d.chunks.empty());
+}
+
+TEST(CaptureReader, TimestampsAreExactNanoseconds) {
+    Drained d = read_all(capture("1763798400.022360 01\n"
+                                 "0.5 02\n"
+                                 "12.123456789 03\n"
+                                 "7 04\n"
+                                 "0.000000001 05\n"
+                                 "-0.25 06\n"
+                                 "9223372036.854775807 07\n"
+                                 "1763798400.1 08\n"),
+                         InputFormat::capture);
+    ASSERT_FALSE(d.error) << d.error->to_string();
+    ASSERT_EQ(d.chunks.size(), 8U);
+    EXPECT_EQ(d.chunks[0].time, 1763798400022360000);
+    EXPECT_EQ(d.chunks[1].time, 500000000);
+    EXPECT_EQ(d.chunks[2].time, 12123456789);
+    EXPECT_EQ(d.chunks[3].time, 7000000000);
+    EXPECT_EQ(d.chunks[4].time, 1);
+    EXPECT_EQ(d.chunks[5].time, -250000000);
+    EXPECT_EQ(d.chunks[6].time, std::numeric_limits<Nanos>::max());
+    EXPECT_EQ(d.chunks[7].time, 1763798400100000000);
+}
+
+TEST(CaptureReader, TimeGoingBackwardsIsKept) {
+    Drained d = read_all(capture("2.0 01\n1.5 02\n"), InputFormat::capture);
+    ASSERT_FALSE(d.error);
+    ASSERT_EQ(d.chunks.size(), 2U);
+    EXPECT_EQ(d.chunks[0].time, 2000000000);
+    EXPECT_EQ(d.chunks[1].time, 1500000000);
+}
+
+TEST(CaptureReader, ChannelTags) {
+    Drained d = read_all(capture("1.000 @A 01 03\n"
+                                 "1.001\t@port2\t02\n"
+                                 "1.002 03\n"),
+                         InputFormat::capture);
+    ASSERT_FALSE(d.error) << d.error->to_string();
+    ASSERT_EQ(d.chunks.size(), 3U);
+    EXPECT_EQ(d.chunks[0].channel, "A");
+    EXPECT_EQ(d.chunks[0].bytes, (Bytes{0x01, 0x03}));
+    EXPECT_EQ(d.chunks[1].channel, "port2");
+    EXPECT_EQ(d.chunks[1].bytes, (Bytes{0x02}));
+    EXPECT_EQ(d.chunks[2].channel, "");
+}
+
+TEST(CaptureReader, MixedCaseHexAndLooseWhitespace) {
+    Drained d = read_all(capture("  3.25   0a Bc\tfF  9D   \n"), InputFormat::capture);
+    ASSERT_FALSE(d.error) << d.error->to_string();
+    ASSERT_EQ(d.chunks.size(), 1U);
+    EXPECT_EQ(d.chunks[0].time, 3250000000);
+    EXPECT_EQ(d.chunks[0].bytes, (Bytes{0x0A, 0xBC, 0xFF, 0x9D}));
+}
+
+TEST(CaptureReader, ToleratesCrlfAndBomAndNoFinalNewline) {
+    Drained d = read_all(
+        "\xEF\xBB\xBF# rtuscope capture v1\r\n# serial 9600 8N1\r\n"
+        "\r\n1.5 01 02\r\n2.5 03",
+        InputFormat::capture);
+    ASSERT_FALSE(d.error) << d.error->to_string();
+    ASSERT_EQ(d.chunks.size(), 2U);
+    EXPECT_EQ(d.chunks[0].bytes, (Bytes{0x01, 0x02}));
+    EXPECT_EQ(d.chunks[0].source_line, 4);
+    EXPECT_EQ(d.chunks[1].bytes, (Bytes{0x03}));
+    EXPECT_EQ(d.chunks[1].time, 2500000000);
+}
+
+TEST(CaptureReader, SerialLineAfterDataUpdatesInfo) {
+    auto source =
+        from_memory(capture("1.0 01\n# serial 115200 8N2\n2.0 02\n"), InputFormat::capture);
+    ASSERT_TRUE(source);
+    EXPECT_FALSE(source->info().line.has_value());
+    Drained d = drain(*source);
+    ASSERT_FALSE(d.error);
+    EXPECT_EQ(d.chunks.size(), 2U);
+    ASSERT_TRUE(source->info().line.has_value());
+    EXPECT_EQ(source->info().line->baud, 115200U);
+    EXPECT_EQ(source->info().line->stop_bits, 2);
+}
+
+TEST(CaptureReader, HeaderErrors) {
+    EXPECT_EQ(error_text("hello\n1.0 01\n"),
+              "cap.rtucap:1:1: not an rtuscope capture (line 1 must be \"# rtuscope capture "
+              "v1\")");
+    EXPECT_EQ(error_text(""),
+              "cap.rtucap:1:1: not an rtuscope capture (line 1 must be \"# rtuscope capture "
+              "v1\")");
+    EXPECT_EQ(error_text("1.0 01 02\n"),
+              "cap.rtucap:1:1: not an rtuscope capture (line 1 must be \"# rtuscope capture "
+              "v1\")");
+    EXPECT_EQ(error_text("# rtuscope capture v2\n"),
+              "cap.rtucap:1:1: unsupported capture version \"v2\" (this rtuscope reads v1)");
+}
+
+TEST(CaptureReader, SerialLineErrorsPointAtTheBadToken) {
+    EXPECT_EQ(error_text(capture("# serial 96x0 8N1\n")),
+              "cap.rtucap:2:10: bad baud rate \"96x0\" (expected a number from 50 to 4000000)");
+    EXPECT_EQ(error_text(capture("# serial 9600 8X1\n")),
+              "cap.rtucap:2:15: bad line format \"8X1\" (expected data bits 5-8, parity N/E/O, "
+              "stop bits 1-2, e.g. 8N1 or 8E1)");
+    EXPECT_EQ(error_text(capture("# serial\n")),
+              "cap.rtucap:2:9: \"# serial\" needs a baud rate and a line format, e.g. "
+              "\"# serial 9600 8N1\"");
+    EXPECT_EQ(error_text(capture("# serial 9600\n")),
+              "cap.rtucap:2:14: \"# serial\" needs a baud rate and a line format, e.g. "
+              "\"# serial 9600 8N1\"");
+    EXPECT_EQ(error_text(capture("# serial 9600 8N1 fast\n")),
+              "cap.rtucap:2:19: unexpected \"fast\" after the line format");
+    // Found while reading on, after a data line.
+    EXPECT_EQ(error_text(capture("1.0 01\n# serial 0 8N1\n")),
+              "cap.rtucap:3:10: bad baud rate \"0\" (expected a number from 50 to 4000000)");
+    // Only the word "serial" makes a comment a settings line.
+    EXPECT_EQ(error_text(capture("# serials are great\n1.0 01\n")), "(no error)");
+}
+
+TEST(CaptureReader, DataLineErrorsPointAtTheBadToken) {
+    EXPECT_EQ(error_text(capture("1763798400.022360 01 03 0G\n")),
+              "cap.rtucap:2:25: bad hex byte \"0G\"");
+    EXPECT_EQ(error_text(capture("1.0 01 123 04\n")), "cap.rtucap:2:8: bad hex byte \"123\"");
+    EXPECT_EQ(error_text(capture("1.0 01 3\n")), "cap.rtucap:2:8: bad hex byte \"3\"");
+    EXPECT_EQ(error_text(capture("1.0 @A 01 @B\n")), "cap.rtucap:2:11: bad hex byte \"@B\"");
+    EXPECT_EQ(error_text(capture("abc 01\n")),
+              "cap.rtucap:2:1: bad timestamp \"abc\" (expected seconds, e.g. "
+              "1763798400.022360)");
+    EXPECT_EQ(error_text(capture("  1.2.3 01\n")),
+              "cap.rtucap:2:3: bad timestamp \"1.2.3\" (expected seconds, e.g. "
+              "1763798400.022360)");
+    EXPECT_EQ(error_text(capture("1. 01\n")),
+              "cap.rtucap:2:1: bad timestamp \"1.\" (expected seconds, e.g. "
+              "1763798400.022360)");
+    EXPECT_EQ(error_text(capture("1.0123456789 01\n")),
+              "cap.rtucap:2:1: timestamp \"1.0123456789\" has more than 9 fractional digits");
+    EXPECT_EQ(error_text(capture("9223372036.854775808 01\n")),
+              "cap.rtucap:2:1: timestamp \"9223372036.854775808\" out of range");
+    EXPECT_EQ(error_text(capture("1.0\n")), "cap.rtucap:2:4: no bytes after the timestamp");
+    EXPECT_EQ(error_text(capture("1.0 @A  \n")), "cap.rtucap:2:7: no bytes after the timestamp");
+    EXPECT_EQ(error_text(capture("1.0 @ 01\n")), "cap.rtucap:2:5: empty channel tag \"@\"");
+    // Non-printable bytes are escaped so the message stays one readable line.
+    EXPECT_EQ(error_text(capture("1.0 0\x01\n")), "cap.rtucap:2:5: bad hex byte \"0\\x01\"");
+}
+
+TEST(CaptureReader, ChunksBeforeAnErrorAreDeliveredAndTheErrorSticks) {
+    auto source = from_memory(capture("# serial 9600 8N1\n"
+                                      "1.0 01 03\n"
+                                      "1.1 02\n"
+                                      "\n"
+                                      "# note\n"
+                                      "1.2 03\n"
+                                      "1.3 01 0G\n"
+                                      "1.4 04\n"),
+                              InputFormat::capture);
+    ASSERT_TRUE(source);
+    Drained d = drain(*source);
+    ASSERT_EQ(d.chunks.size(), 3U);
+    EXPECT_EQ(d.chunks[2].bytes, (Bytes{0x03}));
+    EXPECT_EQ(d.chunks[2].source_line, 7);
+    ASSERT_TRUE(d.error);
+    EXPECT_EQ(d.error->file, "cap.rtucap");
+    EXPECT_EQ(d.error->line, 8);
+    EXPECT_EQ(d.error->column, 8);
+    EXPECT_EQ(d.error->message, "bad hex byte \"0G\"");
+    Chunk chunk;
+    Result<bool> again = source->next(chunk);
+    ASSERT_FALSE(again.ok());
+    EXPECT_EQ(again.error().line, 8);
+}
+
+TEST(CaptureReader, ErrorOnTheFirstDataLineComesFromNext) {
+    auto source =
+        source_from_memory(capture("# serial 9600 8N1\nxyz 01\n"), "c", InputFormat::capture);
+    ASSERT_TRUE(source.ok());
+    Drained d = drain(**source);
+    EXPECT_TRUE(d.chunks.empty());
+    ASSERT_TRUE(d.error);
+    EXPECT_EQ(d.error->line, 3);
+    EXPECT_EQ(d.error->column, 1);
+}
+
+// --- raw ----------------------------------------------------------------------------------
+
+TEST(RawReader, DeliversChunksOfAtMost4096BytesWithoutTime) {
+    std::string content(10000, '\0');
+    for (std::size_t i = 0; i < content.size(); ++i) content[i] = static_cast<char>(i * 7);
+    auto source = from_memory(content, InputFormat::raw, "dump.bin");
+    ASSERT_TRUE(source);
+    EXPECT_EQ(source->info().format, "raw");
+    EXPECT_EQ(source->info().name, "dump.bin");
+    EXPECT_FALSE(source->info().timed);
+    EXPECT_FALSE(source->info().chunk_is_frame);
+    EXPECT_FALSE(source->info().line.has_value());
+    Drained d = drain(*source);
+    ASSERT_FALSE(d.error);
+    ASSERT_EQ(d.chunks.size(), 3U);
+    EXPECT_EQ(d.chunks[0].bytes.size(), 4096U);
+    EXPECT_EQ(d.chunks[1].bytes.size(), 4096U);
+    EXPECT_EQ(d.chunks[2].bytes.size(), 1808U);
+    for (const Chunk& c : d.chunks) {
+        EXPECT_EQ(c.time, kNoTime);
+        EXPECT_EQ(c.source_line, 0);
+        EXPECT_EQ(c.channel, "");
+    }
+    EXPECT_EQ(d.chunks[1].bytes[0], static_cast<std::uint8_t>(4096 * 7));
+    EXPECT_EQ(d.chunks[2].bytes.back(), static_cast<std::uint8_t>(9999 * 7));
+}
+
+TEST(RawReader, EmptyInputHasNoChunks) {
+    auto source = from_memory("", InputFormat::automatic, "empty.bin");
+    ASSERT_TRUE(source);
+    EXPECT_EQ(source->info().format, "raw");
+    Drained d = drain(*source);
+    EXPECT_FALSE(d.error);
+    EXPECT_TRUE(d.chunks.empty());
+}
+
+// --- hex logs -------------------------------------------------------------------------------
+
+struct HexCase {
+    const char* line;
+    Bytes bytes;
+    Nanos time;
+};
+
+TEST(HexReader, ReadsManualAndTerminalLines) {
+    const std::vector<HexCase> cases = {
+        {"主机：01 03 00 00 00 02 c4 0b",
+         {0x01, 0x03, 0x00, 0x00, 0x00, 0x02, 0xC4, 0x0B},
+         kNoTime},
+        {"ZB-UVI485模块：**01 03 02 18 18 b2 4e**",
+         {0x01, 0x03, 0x02, 0x18, 0x18, 0xB2, 0x4E},
+         kNoTime},
+        {"串口调试助手： 01 04 00 15 00 12 61 c3",
+         {0x01, 0x04, 0x00, 0x15, 0x00, 0x12, 0x61, 0xC3},
+         kNoTime},
+        {"[2024-05-01 10:21:33.120] TX: 01 03 00 00 00 02 C4 0B",
+         {0x01, 0x03, 0x00, 0x00, 0x00, 0x02, 0xC4, 0x0B},
+         1714558893120000000},
+        {"10:21:33.120 RX 01 03 02 17 F8 B6 36",
+         {0x01, 0x03, 0x02, 0x17, 0xF8, 0xB6, 0x36},
+         37293120000000},
+        {"010300000002C40B", {0x01, 0x03, 0x00, 0x00, 0x00, 0x02, 0xC4, 0x0B}, kNoTime},
+        {"TX:01 06 00 01 00 03 98 0B", {0x01, 0x06, 0x00, 0x01, 0x00, 0x03, 0x98, 0x0B}, kNoTime},
+        {"RX>01 06 00 01 00 03 98 0B", {0x01, 0x06, 0x00, 0x01, 0x00, 0x03, 0x98, 0x0B}, kNoTime},
+        {"send: 010300000002C40B", {0x01, 0x03, 0x00, 0x00, 0x00, 0x02, 0xC4, 0x0B}, kNoTime},
+        {"RECV:0103021818B24E", {0x01, 0x03, 0x02, 0x18, 0x18, 0xB2, 0x4E}, kNoTime},
+        {"发送 -> 01 03 00 00 00 02 C4 0B",
+         {0x01, 0x03, 0x00, 0x00, 0x00, 0x02, 0xC4, 0x0B},
+         kNoTime},
+        {"{0x01, 0x03, 0x00, 0x00, 0x00, 0x02, 0xC4, 0x0B}", {}, kNoTime},  // '}' ends it
+        {"0x01, 0x03, 0x00, 0x00, 0x00, 0x02, 0xC4, 0x0B,",
+         {0x01, 0x03, 0x00, 0x00, 0x00, 0x02, 0xC4, 0x0B},
+         kNoTime},
+        {"`01 03 02 17 F8 B6 36`", {0x01, 0x03, 0x02, 0x17, 0xF8, 0xB6, 0x36}, kNoTime},
+        {"[10:21:33.120]收←◆01 03 02 17 F8 B6 36",  // sscom
+         {0x01, 0x03, 0x02, 0x17, 0xF8, 0xB6, 0x36},
+         37293120000000},
+        {"2024-05-01T10:21:33Z 01 03 00", {0x01, 0x03, 0x00}, 1714558893000000000},
+        {"2024-05-01 18:21:33+08:00 01 03 00", {0x01, 0x03, 0x00}, 1714558893000000000},
+        {"2024/05/01 10:21:33,5 01 03 00", {0x01, 0x03, 0x00}, 1714558893500000000},
+        {"9:05:03 01 03 00", {0x01, 0x03, 0x00}, 32703000000000},
+        {"10:21:33 AB CD EF", {0xAB, 0xCD, 0xEF}, 37293000000000},
+        {"01 03 00 00 00 02 C4 0B # read 2 registers 01 02 03",
+         {0x01, 0x03, 0x00, 0x00, 0x00, 0x02, 0xC4, 0x0B},
+         kNoTime},
+        {"Frame #3: 01 03 02 17 F8 B6 36 // answer",
+         {0x01, 0x03, 0x02, 0x17, 0xF8, 0xB6, 0x36},
+         kNoTime},
+        {"| 01 03 02 17 F8 B6 36 |", {0x01, 0x03, 0x02, 0x17, 0xF8, 0xB6, 0x36}, kNoTime},
+        {"主机，01，03，00", {0x01, 0x03, 0x00}, kNoTime},
+        {"发送：01H 03H 00H 00H 00H 01H 84H 0AH",
+         {0x01, 0x03, 0x00, 0x00, 0x00, 0x01, 0x84, 0x0A},
+         kNoTime},
+    };
+    for (const HexCase& c : cases) {
+        SCOPED_TRACE(c.line);
+        auto source = from_memory(std::string(c.line) + "\n", InputFormat::hex, "log.txt");
+        ASSERT_TRUE(source);
+        EXPECT_EQ(source->info().format, "hex");
+        EXPECT_TRUE(source->info().chunk_is_frame);
+        EXPECT_EQ(source->info().timed, has_time(c.time));
+        Drained d = drain(*source);
+        ASSERT_FALSE(d.error);
+        if (c.bytes.empty()) {
+            EXPECT_TRUE(d.chunks.empty());
+            EXPECT_EQ(source->remarks(),
+                      std::vector<std::string>{"skipped 1 line with no frame: 1"});
+            continue;
+        }
+        ASSERT_EQ(d.chunks.size(), 1U);
+        EXPECT_EQ(d.chunks[0].bytes, c.bytes);
+        EXPECT_EQ(d.chunks[0].time, c.time);
+        EXPECT_EQ(d.chunks[0].source_line, 1);
+        EXPECT_EQ(d.chunks[0].channel, "");
+        EXPECT_TRUE(source->remarks().empty());
+    }
+}
+
+TEST(HexReader, NeverReadsATimestampAsBytes) {
+    // "10:21:33" must not become 10 21 33; with only two real bytes the line is no frame.
+    Drained d = read_all(
+        "10:21:33 01 02\n"
+        "10:21:33:01 03 04\n"
+        "2024-05-01 10:21:33 01 03 04\n",
+        InputFormat::hex);
+    ASSERT_FALSE(d.error);
+    ASSERT_EQ(d.chunks.size(), 1U);
+    EXPECT_EQ(d.chunks[0].source_line, 3);
+    EXPECT_EQ(d.chunks[0].bytes, (Bytes{0x01, 0x03, 0x04}));
+}
+
+TEST(HexReader, SkippedLinesAreSummarisedInOneRemark) {
+    auto source = from_memory(
+        "Modbus example\n"  // 1 skipped
+        "request:\n"        // 2 skipped
+        "01 03\n"           // 3 skipped: too short
+        "01 03 00 00 00 02 C4 0B\n"
+        "\n"                    // blank: not counted
+        "# comment 01 02 03\n"  // comment: not counted
+        "answer follows\n"      // 7 skipped
+        "01 03 02 17 F8 B6 36\n"
+        "done.\n"  // 9 skipped
+        "   // another comment\n",
+        InputFormat::hex, "manual.txt");
+    ASSERT_TRUE(source);
+    Drained d = drain(*source);
+    ASSERT_FALSE(d.error);
+    ASSERT_EQ(d.chunks.size(), 2U);
+    EXPECT_EQ(d.chunks[0].source_line, 4);
+    EXPECT_EQ(d.chunks[1].source_line, 8);
+    EXPECT_FALSE(source->info().timed);
+    EXPECT_EQ(source->remarks(),
+              std::vector<std::string>{"skipped 5 lines with no frame: 1-3, 7, 9"});
+}
+
+TEST(HexReader, TimedWhenAnyLineHasATimeAndTimeOfDayRollsOverMidnight) {
+    auto source = from_memory(
+        "23:59:59.900 TX 01 03 00 00 00 01 84 0A\r\n"
+        "00:00:00.100 RX 01 03 02 00 2A 39 9B\r\n",
+        InputFormat::hex);
+    ASSERT_TRUE(source);
+    EXPECT_TRUE(source->info().timed);
+    Drained d = drain(*source);
+    ASSERT_EQ(d.chunks.size(), 2U);
+    EXPECT_EQ(d.chunks[0].time, 86399900000000);
+    EXPECT_EQ(d.chunks[1].time, 86400100000000);
+    EXPECT_EQ(d.chunks[1].bytes.back(), 0x9B);  // CR stripped
+}
+
+TEST(HexReader, EmptyAndCommentOnlyLogsHaveNoRemark) {
+    auto source = from_memory("# nothing\n\n", InputFormat::hex);
+    ASSERT_TRUE(source);
+    Drained d = drain(*source);
+    EXPECT_TRUE(d.chunks.empty());
+    EXPECT_TRUE(source->remarks().empty());
+}
+
+// --- detection ------------------------------------------------------------------------------
+
+TEST(SourcesDetect, RecognisesEachFormat) {
+    EXPECT_EQ(detect_input_format("# rtuscope capture v1\n1.0 01\n"), InputFormat::capture);
+    EXPECT_EQ(detect_input_format("\xEF\xBB\xBF# rtuscope capture v1\n"), InputFormat::capture);
+    // A capture of an unknown version is still a capture; the reader says what is wrong.
+    EXPECT_EQ(detect_input_format("# rtuscope capture v2\n"), InputFormat::capture);
+    EXPECT_EQ(detect_input_format("TX: 01 03 00 00 00 02 C4 0B\n"), InputFormat::hex);
+    EXPECT_EQ(detect_input_format("Example\n\n主机：01 03 00 00 00 02 c4 0b\n"), InputFormat::hex);
+    EXPECT_EQ(detect_input_format("010300000002C40B"), InputFormat::hex);
+    EXPECT_EQ(detect_input_format(std::string("\x01\x03\x00\x00\x00\x02\xC4\x0B", 8)),
+              InputFormat::raw);
+    EXPECT_EQ(detect_input_format("01 03 00 00\x1B[0m\n"), InputFormat::raw);    // control byte
+    EXPECT_EQ(detect_input_format("caf\xE9: 01 03 00 00\n"), InputFormat::raw);  // Latin-1
+    EXPECT_EQ(detect_input_format("hello world\n"), InputFormat::raw);
+    EXPECT_EQ(detect_input_format("10:21:33 01 02\n"), InputFormat::raw);  // only two bytes
+    EXPECT_EQ(detect_input_format("# 01 03 00 00 00 02 C4 0B\n"), InputFormat::raw);
+    EXPECT_EQ(detect_input_format(""), InputFormat::raw);
+    // The sniffed head may end inside a UTF-8 character.
+    EXPECT_EQ(detect_input_format("01 03 00 00 00 02 C4 0B\n\xE4\xB8"), InputFormat::hex);
+}
+
+TEST(SourcesDetect, AutomaticFromMemoryPicksTheReader) {
+    auto capture_source = from_memory(capture("1.0 01\n"), InputFormat::automatic);
+    ASSERT_TRUE(capture_source);
+    EXPECT_EQ(capture_source->info().format, "capture");
+    auto hex_source = from_memory("TX 01 03 00 00 00 02 C4 0B\n", InputFormat::automatic);
+    ASSERT_TRUE(hex_source);
+    EXPECT_EQ(hex_source->info().format, "hex");
+    auto raw_source = from_memory(std::string("\x01\x03\x00", 3), InputFormat::automatic);
+    ASSERT_TRUE(raw_source);
+    EXPECT_EQ(raw_source->info().format, "raw");
+}
+
+// --- files ----------------------------------------------------------------------------------
+
+TEST(SourcesOpen, MissingFileAndDirectoryAreClearErrors) {
+    TempDir dir;
+    const std::string missing = dir.path() + "/nope.rtucap";
+    auto a = open_source(missing, InputFormat::automatic);
+    ASSERT_FALSE(a.ok());
+    EXPECT_EQ(a.error().file, missing);
+    EXPECT_EQ(a.error().to_string(), missing + ": cannot open: No such file or directory");
+    auto b = open_source(dir.path(), InputFormat::capture);
+    ASSERT_FALSE(b.ok());
+    EXPECT_EQ(b.error().to_string(), dir.path() + ": is a directory");
+}
+
+TEST(SourcesOpen, PermissionDenied) {
+    TempDir dir;
+    const std::string file = dir.write("secret.rtucap", capture("1.0 01\n"));
+    ASSERT_EQ(::chmod(file.c_str(), 0), 0);
+    const std::string expected = file + ": cannot open: Permission denied";
+    if (::geteuid() != 0) {
+        auto source = open_source(file, InputFormat::automatic);
+        ASSERT_FALSE(source.ok());
+        EXPECT_EQ(source.error().to_string(), expected);
+        return;
+    }
+    // Root reads every file: try as an unprivileged user in a child process.
+    const pid_t child = ::fork();
+    ASSERT_GE(child, 0);
+    if (child == 0) {
+        if (::setgid(65534) != 0 || ::setuid(65534) != 0) ::_exit(2);
+        auto source = open_source(file, InputFormat::automatic);
+        ::_exit(!source.ok() && source.error().to_string() == expected ? 0 : 1);
+    }
+    int status = 0;
+    ASSERT_EQ(::waitpid(child, &status, 0), child);
+    ASSERT_TRUE(WIFEXITED(status));
+    if (WEXITSTATUS(status) == 2) GTEST_SKIP() << "cannot drop root privileges here";
+    EXPECT_EQ(WEXITSTATUS(status), 0) << "expected: " << expected;
+}
+
+TEST(SourcesOpen, DetectsAndReadsEachFormatFromFiles) {
+    TempDir dir;
+    const std::string cap = dir.write("a.rtucap", capture("# serial 9600 8E1\n1.5 01 02\n"));
+    auto c = open_source(cap, InputFormat::automatic);
+    ASSERT_TRUE(c.ok()) << c.error().to_string();
+    EXPECT_EQ((*c)->info().format, "capture");
+    EXPECT_EQ((*c)->info().name, cap);
+    EXPECT_EQ((*c)->info().line->parity, 'E');
+    Drained dc = drain(**c);
+    ASSERT_EQ(dc.chunks.size(), 1U);
+    EXPECT_EQ(dc.chunks[0].bytes, (Bytes{0x01, 0x02}));
+
+    const std::string hex = dir.write("log.txt", "TX 01 03 00 00 00 02 C4 0B\nnothing\n");
+    auto h = open_source(hex, InputFormat::automatic);
+    ASSERT_TRUE(h.ok());
+    EXPECT_EQ((*h)->info().format, "hex");
+    Drained dh = drain(**h);
+    ASSERT_EQ(dh.chunks.size(), 1U);
+    EXPECT_EQ((*h)->remarks(), std::vector<std::string>{"skipped 1 line with no frame: 2"});
+
+    std::string bytes(5000, '\x01');
+    bytes[0] = '\0';
+    const std::string raw = dir.write("dump.bin", bytes);
+    auto r = open_source(raw, InputFormat::automatic);
+    ASSERT_TRUE(r.ok());
+    EXPECT_EQ((*r)->info().format, "raw");
+    Drained dr = drain(**r);
+    ASSERT_EQ(dr.chunks.size(), 2U);
+    EXPECT_EQ(dr.chunks[0].bytes.size(), 4096U);
+    EXPECT_EQ(dr.chunks[1].bytes.size(), 904U);
+    EXPECT_EQ(dr.chunks[0].bytes[0], 0x00);
+    EXPECT_EQ(dr.chunks[1].bytes[903], 0x01);
+
+    const std::string empty = dir.write("empty", "");
+    auto e = open_source(empty, InputFormat::automatic);
+    ASSERT_TRUE(e.ok());
+    EXPECT_EQ((*e)->info().format, "raw");
+    EXPECT_TRUE(drain(**e).chunks.empty());
+}
+
+TEST(SourcesOpen, ForcedFormatOverridesDetection) {
+    TempDir dir;
+    const std::string file = dir.write("x.txt", "TX 01 03 00 00 00 02 C4 0B\n");
+    auto r = open_source(file, InputFormat::raw);
+    ASSERT_TRUE(r.ok());
+    Drained d = drain(**r);
+    ASSERT_EQ(d.chunks.size(), 1U);
+    EXPECT_EQ(d.chunks[0].bytes.size(), 27U);
+    auto c = open_source(file, InputFormat::capture);
+    ASSERT_FALSE(c.ok());
+    EXPECT_EQ(c.error().to_string(),
+              file + ":1:1: not an rtuscope capture (line 1 must be \"# rtuscope capture v1\")");
+}
+
+TEST(SourcesOpen, StandardInputKeepsTheSniffedBytes) {
+    // More than the 4 KiB used for detection, so the reader must carry on after them.
+    TempDir dir;
+    std::string log;
+    for (int i = 0; i < 300; ++i) log += "RX 01 03 02 17 F8 B6 36\n";
+    const std::string file = dir.write("stdin.txt", log);
+    ASSERT_GT(log.size(), 4096U);
+
+    const int saved = ::dup(STDIN_FILENO);
+    const int fd = ::open(file.c_str(), O_RDONLY);
+    ASSERT_GE(fd, 0);
+    ::dup2(fd, STDIN_FILENO);
+    ::close(fd);
+    std::clearerr(stdin);
+    auto source = open_source("-", InputFormat::automatic);
+    Drained d;
+    if (source.ok()) d = drain(**source);
+    ::dup2(saved, STDIN_FILENO);
+    ::close(saved);
+    std::clearerr(stdin);
+
+    ASSERT_TRUE(source.ok()) << source.error().to_string();
+    EXPECT_EQ((*source)->info().name, "-");
+    EXPECT_EQ((*source)->info().format, "hex");
+    ASSERT_FALSE(d.error);
+    ASSERT_EQ(d.chunks.size(), 300U);
+    for (const Chunk& c : d.chunks) {
+        ASSERT_EQ(c.bytes, (Bytes{0x01, 0x03, 0x02, 0x17, 0xF8, 0xB6, 0x36}));
+    }
+    EXPECT_EQ(d.chunks.back().source_line, 300);
+}
+
+TEST(SourcesOpen, GarbageNeverCrashesAReader) {
+    // Every reader must turn arbitrary bytes into chunks or one error, never a crash.
+    std::uint32_t state = 12345;
+    const auto next_byte = [&] {
+        state = state * 1103515245U + 12345U;
+        return static_cast<char>(state >> 16);
+    };
+    const std::string alphabet = "0123456789abcdefABCDEF:. \t\n#/@*,>x-T";
+    for (int round = 0; round < 200; ++round) {
+        std::string text = round % 2 == 0 ? "# rtuscope capture v1\n" : "";
+        for (int i = 0; i < 300; ++i) {
+            const char c = next_byte();
+            text += round % 3 == 0 ? c : alphabet[static_cast<unsigned char>(c) % alphabet.size()];
+        }
+        for (InputFormat format :
+             {InputFormat::automatic, InputFormat::capture, InputFormat::hex, InputFormat::raw}) {
+            auto source = source_from_memory(text, "fuzz", format);
+            if (!source) continue;
+            Drained d = drain(**source);
+            for (const Chunk& c : d.chunks) {
+                if ((*source)->info().chunk_is_frame) {
+                    ASSERT_GE(c.bytes.size(), 3U);
+                }
+                ASSERT_FALSE(c.bytes.empty());
+            }
+        }
+    }
+}
+
+TEST(CaptureReader, StreamsALargeFileAcrossBufferBoundaries) {
+    // Well over the reader's 64 KiB blocks, CRLF lines, a bad line near the end.
+    TempDir dir;
+    std::string content = "# rtuscope capture v1\r\n# serial 9600 8N1\r\n";
+    const int lines = 20000;
+    for (int i = 0; i < lines; ++i) {
+        content += std::to_string(1000 + i) + "." + std::to_string(100000 + i) +
+                   " @B 01 03 02 17 F8 B6 36\r\n";
+    }
+    content += "9999.5 01 zz\r\n";
+    const std::string file = dir.write("big.rtucap", content);
+    ASSERT_GT(content.size(), 3U * 65536U);
+    auto source = open_source(file, InputFormat::automatic);
+    ASSERT_TRUE(source.ok()) << source.error().to_string();
+    Drained d = drain(**source);
+    ASSERT_EQ(d.chunks.size(), static_cast<std::size_t>(lines));
+    for (int i = 0; i < lines; ++i) {
+        const Chunk& c = d.chunks[static_cast<std::size_t>(i)];
+        ASSERT_EQ(c.source_line, i + 3);
+        ASSERT_EQ(c.time, (1000 + i) * kNanosPerSecond + (100000 + i) * 1000);
+        ASSERT_EQ(c.channel, "B");
+        ASSERT_EQ(c.bytes, (Bytes{0x01, 0x03, 0x02, 0x17, 0xF8, 0xB6, 0x36}));
+    }
+    ASSERT_TRUE(d.error);
+    EXPECT_EQ(d.error->to_string(),
+              file + ":" + std::to_string(lines + 3) + ":11: bad hex byte \"zz\"");
+}
+
+TEST(CaptureReader, OverlongLineIsAnErrorNotAnEndlessBuffer) {
+    TempDir dir;
+    const std::string file =
+        dir.write("huge.rtucap", capture("0.5 01\n1.0" + std::string(2u << 20, ' ') + "01\n"));
+    auto source = open_source(file, InputFormat::capture);
+    ASSERT_TRUE(source.ok());
+    Drained d = drain(**source);
+    EXPECT_EQ(d.chunks.size(), 1U);
+    ASSERT_TRUE(d.error);
+    EXPECT_EQ(d.error->to_string(),
+              file + ":3: line longer than 1048576 bytes; is this a text file?");
+}
+
+}  // namespace
+}  // namespace rtuscope
