@@ -219,7 +219,7 @@ struct Decoder {
     void check_echo(std::size_t n, const std::string& request_text) {
         if (!has_request || req.size() < n || data.size() < n) return;
         if (!std::equal(data.begin(), data.begin() + static_cast<std::ptrdiff_t>(n), req.begin())) {
-            note(note_id::mismatch_request, fmt::format("request was {}", request_text));
+            note(note_id::request_mismatch, fmt::format("request was {}", request_text));
         }
     }
 };
@@ -446,7 +446,7 @@ void write_multiple_response(Decoder& d, bool bits) {
     if (qty) d.check_quantity(*qty, bits ? kMaxWriteBits : kMaxWriteRegisters);
     if (const auto asked = asked_range(d);
         asked && start && qty && (asked->start != *start || asked->qty != *qty)) {
-        d.note(note_id::mismatch_request,
+        d.note(note_id::request_mismatch,
                fmt::format("request was 0x{:04X} x{}", asked->start, asked->qty));
     }
 }
@@ -729,12 +729,12 @@ void diagnostics(Decoder& d) {
     if (d.is_response() && d.has_request) {
         const auto asked = u16_at(d.req, 0);
         if (asked && *asked != *sub) {
-            d.note(note_id::mismatch_request,
+            d.note(note_id::request_mismatch,
                    fmt::format("request was sub-function 0x{:04X}", *asked));
         } else if (asked && diagnostics_echoes(*sub)) {
             const Bytes asked_data = slice(d.req, 2);
             if (!std::equal(payload.begin(), payload.end(), asked_data.begin(), asked_data.end())) {
-                d.note(note_id::mismatch_request, fmt::format("echo differs from the request ({})",
+                d.note(note_id::request_mismatch, fmt::format("echo differs from the request ({})",
                                                               diagnostics_data_text(asked_data)));
             }
         }
@@ -872,7 +872,7 @@ void read_file_response(Decoder& d) {
         at += 1U + length;
     }
     if (d.has_request && parts.size() != asked.size()) {
-        d.note(note_id::mismatch_request,
+        d.note(note_id::request_mismatch,
                fmt::format("{}, {} asked", counted(parts.size(), "sub-response", "sub-responses"),
                            asked.size()));
     }
@@ -927,7 +927,7 @@ void write_file_record(Decoder& d) {
     if (!parts.empty()) d.out.summary += ": " + join(parts, ", ");
     if (d.is_response() && d.has_request &&
         !std::equal(d.data.begin(), d.data.end(), d.req.begin(), d.req.end())) {
-        d.note(note_id::mismatch_request, "echo differs from the request");
+        d.note(note_id::request_mismatch, "echo differs from the request");
     }
 }
 
@@ -1033,7 +1033,7 @@ void device_id_response(Decoder& d) {
     if (d.has_request && code) {
         const auto asked = u8_at(d.req, 1);
         if (asked && *asked != *code) {
-            d.note(note_id::mismatch_request,
+            d.note(note_id::request_mismatch,
                    fmt::format("request was {}", device_id_code_text(*asked)));
         }
     }
@@ -1217,7 +1217,7 @@ DecodedPdu decode_pdu(std::span<const std::uint8_t> pdu, Role role,
             d.req = request_pdu.subspan(1);
             d.has_request = true;
         } else {
-            d.note(note_id::mismatch_request,
+            d.note(note_id::request_mismatch,
                    fmt::format("request was function 0x{:02X}", request_pdu[0]));
         }
     }

@@ -28,9 +28,16 @@ Reading reading_for(Role role, std::uint8_t function) {
     return (function & 0x80U) ? Reading::exception : Reading::response;
 }
 
-std::string crc_note_text(const CrcCheck& crc) {
-    return fmt::format("CRC BAD (expected {:02X} {:02X}, got {:02X} {:02X})", crc.expected & 0xFFU,
-                       crc.expected >> 8, crc.received & 0xFFU, crc.received >> 8);
+// The CRC as it should be and as it came, in wire order (low byte first).
+void add_crc_note(Frame& frame) {
+    const CrcCheck& crc = frame.crc;
+    if (crc.status != CrcStatus::bad && crc.status != CrcStatus::swapped) return;
+    const bool bad = crc.status == CrcStatus::bad;
+    frame.notes.push_back(
+        {bad ? note_id::crc_mismatch : note_id::crc_swapped,
+         fmt::format("{} (expected {:02X} {:02X}, got {:02X} {:02X})",
+                     bad ? "CRC BAD" : "CRC bytes swapped", crc.expected & 0xFFU,
+                     crc.expected >> 8, crc.received & 0xFFU, crc.received >> 8)});
 }
 
 double in_ms(Nanos t) { return static_cast<double>(t) / 1e6; }
@@ -172,20 +179,10 @@ Framer::Attempt Framer::attempt_at(std::size_t at, bool at_end) const {
                     best.outcome == Outcome::frame && best.delimiter == Delimiter::crc_search) {
                     continue;  // same search as the request reading
                 }
-                const std::size_t gap_bound = next_gap(at) - at;
-                const std::size_t bound = std::min(gap_bound, head.size());
-                std::uint16_t crc = crc16_modbus(head.first(kMinAdu - 2));
-                for (std::size_t n = kMinAdu; n <= bound; ++n) {
-                    if (crc == (head[n - 2] | (head[n - 1] << 8))) {
-                        candidate.length = n;
-                        break;
-                    }
-                    crc = crc16_modbus_update(crc, head.subspan(n - 2, 1));
-                }
-                if (candidate.length == 0) {
-                    if (!at_end && bound == avail && avail < kMaxAdu) pending = true;
-                    continue;
-                }
+                const Search found = search_length(at, at_end, true);
+                if (found.pending) pending = true;
+                if (found.length == 0) continue;
+                candidate.length = found.length;
                 candidate.crc = CrcStatus::ok;
                 candidate.delimiter = Delimiter::crc_search;
                 // Order, not shape, tells which way these go.
@@ -215,15 +212,69 @@ Framer::Attempt Framer::attempt_at(std::size_t at, bool at_end) const {
     return best;
 }
 
+Framer::Search Framer::search_length(std::size_t at, bool at_end, bool confirm) const {
+    // CRC over each possible length, bounded by the next gap where there is timing. By
+    // chance one length in 65536 passes, so a hit must also be followed by a silence,
+    // the end of the input, or another frame: random bytes rarely manage both.
+    Search result;
+    const std::size_t avail = bytes_.size() - at;
+    const auto head = std::span(bytes_).subspan(at, std::min(avail, kMaxAdu));
+    const std::size_t bound = std::min(next_gap(at) - at, head.size());
+    if (bound < kMinAdu) {
+        result.pending = !at_end && bound == avail;
+        return result;
+    }
+    std::uint16_t crc = crc16_modbus(head.first(kMinAdu - 2));
+    for (std::size_t n = kMinAdu; n <= bound; ++n) {
+        if (crc == (head[n - 2] | (head[n - 1] << 8))) {
+            const Follows follows = confirm ? what_follows(at + n, at_end) : Follows::boundary;
+            if (follows == Follows::boundary) {
+                result.length = n;
+                return result;
+            }
+            if (follows == Follows::unknown_yet) {
+                result.pending = true;
+                return result;
+            }
+        }
+        crc = crc16_modbus_update(crc, head.subspan(n - 2, 1));
+    }
+    result.pending = !at_end && bound == avail && avail < kMaxAdu;
+    return result;
+}
+
+Framer::Follows Framer::what_follows(std::size_t end, bool at_end) const {
+    if (end == bytes_.size()) return at_end ? Follows::boundary : Follows::unknown_yet;
+    if (gap_before(end)) return Follows::boundary;
+    const std::size_t avail = bytes_.size() - end;
+    if (avail < 2) return at_end ? Follows::nothing : Follows::unknown_yet;
+    const auto head = std::span(bytes_).subspan(end, std::min(avail, kMaxAdu));
+    bool unknown_yet = false;
+    for (const Role role : {Role::request, Role::response}) {
+        const FrameLength length = options_.rules->frame_length(head, role);
+        if (length.kind == FrameLength::Kind::fixed && length.bytes >= kMinAdu) {
+            if (length.bytes > avail) {
+                unknown_yet = unknown_yet || !at_end;
+            } else if (check_crc(head.first(length.bytes)).status != CrcStatus::bad) {
+                return Follows::boundary;
+            }
+        } else if (length.kind == FrameLength::Kind::need_more) {
+            unknown_yet = unknown_yet || (!at_end && head.size() < kMaxAdu);
+        } else if (length.kind == FrameLength::Kind::search) {
+            const Search next = search_length(end, at_end, false);
+            if (next.length != 0) return Follows::boundary;
+            unknown_yet = unknown_yet || next.pending;
+        }
+    }
+    return unknown_yet ? Follows::unknown_yet : Follows::nothing;
+}
+
 void Framer::decide(bool at_end) {
     while (pos_ < bytes_.size()) {
         const Attempt here = attempt_at(pos_, at_end);
         if (here.outcome == Outcome::need_more) break;
         if (here.outcome == Outcome::frame) {
             Notes notes;
-            if (here.crc == CrcStatus::swapped) {
-                notes.push_back({note_id::crc_swapped, "CRC bytes swapped"});
-            }
             if (here.delimiter == Delimiter::crc_search) {
                 notes.push_back({note_id::unknown_length, "length found by CRC"});
             }
@@ -273,14 +324,15 @@ bool Framer::awaits_answer(std::span<const std::uint8_t> head, Nanos at) const {
            awaited->function == (head[1] & 0x7FU);
 }
 
-Reading Framer::reading_by_shape(std::span<const std::uint8_t> frame, Nanos at) const {
+Reading Framer::reading_by_shape(std::span<const std::uint8_t> frame, Nanos at,
+                                 bool any_length_fits_search) const {
     if (frame.size() < 2) return Reading::unknown;
     bool fits[2] = {false, false};
     for (const Role role : {Role::request, Role::response}) {
         const FrameLength length = options_.rules->frame_length(frame, role);
         fits[role == Role::response] =
             (length.kind == FrameLength::Kind::fixed && length.bytes == frame.size()) ||
-            length.kind == FrameLength::Kind::search;
+            (any_length_fits_search && length.kind == FrameLength::Kind::search);
     }
     const bool prefer_response = awaits_answer(frame, at);
     if (fits[0] && fits[1]) {
@@ -304,19 +356,17 @@ void Framer::classify_unframed(std::size_t from, std::size_t to) {
 
         if (n >= kMinAdu) {
             const CrcCheck crc = check_crc(piece);
-            const Reading shape = reading_by_shape(piece, byte_end_[start]);
+            const Reading shape = reading_by_shape(piece, byte_end_[start], false);
             if (crc.status != CrcStatus::bad) {
                 // CRC right but the length disagrees with the function code.
-                Notes notes{{note_id::malformed, "length does not fit its function code"}};
-                if (crc.status == CrcStatus::swapped) notes.push_back({note_id::crc_swapped, "CRC bytes swapped"});
-                emit(start, n, RecordClass::frame, shape, Delimiter::gap, std::move(notes));
+                emit(start, n, RecordClass::frame, shape, Delimiter::gap,
+                     {{note_id::malformed, "length does not fit its function code"}});
                 start = end;
                 continue;
             }
             if (shape != Reading::unknown) {
                 emit(start, n, RecordClass::invalid, shape,
-                     bounded_by_gaps ? Delimiter::gap : Delimiter::length_crc,
-                     {{note_id::crc_mismatch, crc_note_text(crc)}});
+                     bounded_by_gaps ? Delimiter::gap : Delimiter::length_crc, {});
                 start = end;
                 continue;
             }
@@ -357,14 +407,10 @@ void Framer::emit_chunk_as_frame(const Chunk& chunk) {
     frame.source_line = chunk.source_line;
     frame.delimiter = Delimiter::line;
     frame.crc = check_crc(frame.bytes);
-    frame.reading = reading_by_shape(frame.bytes, chunk.time);
+    frame.reading = reading_by_shape(frame.bytes, chunk.time, true);
     frame.cls = frame.crc.status == CrcStatus::bad ? RecordClass::invalid : RecordClass::frame;
     if (frame.bytes.size() < kMinAdu) frame.cls = RecordClass::invalid;
-    if (frame.crc.status == CrcStatus::bad) {
-        frame.notes.push_back({note_id::crc_mismatch, crc_note_text(frame.crc)});
-    } else if (frame.crc.status == CrcStatus::swapped) {
-        frame.notes.push_back({note_id::crc_swapped, "CRC bytes swapped"});
-    }
+    add_crc_note(frame);
     if (frame.reading == Reading::unknown && frame.cls == RecordClass::frame) {
         frame.notes.push_back({note_id::malformed, "length does not fit its function code"});
     }
@@ -382,9 +428,14 @@ void Framer::emit(std::size_t at, std::size_t length, RecordClass cls, Reading r
     if (cls != RecordClass::noise) frame.crc = check_crc(frame.bytes);
     if (has_time(byte_end_[at])) frame.start = byte_end_[at] - char_time_;
     frame.end = byte_end_[at + length - 1];
+    if (gap_[at] != kNoTime && gap_[at] != kBoundary) frame.silence_before = gap_[at];
     frame.channel = channels_[channel_[at]];
     frame.source_line = line_[at];
-    frame.notes = std::move(notes);
+    // A frame cut short has no CRC to be wrong.
+    const bool cut_short = !notes.empty() && std::string_view(notes.front().id) == note_id::truncated;
+    if (cut_short) frame.crc = {};
+    if (cls != RecordClass::noise && !cut_short) add_crc_note(frame);
+    frame.notes.insert(frame.notes.end(), notes.begin(), notes.end());
     if (cls != RecordClass::noise) add_timing_notes(frame, at, length);
     pos_ = at + length;
     scan_hint_ = 0;

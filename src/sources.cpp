@@ -210,16 +210,14 @@ InputFormat detect_input_format(std::string_view head) {
             return InputFormat::raw;
         }
     }
-    if (!valid_utf8(head)) return InputFormat::raw;
-    while (!head.empty()) {
-        const std::size_t nl = head.find('\n');
-        std::string_view line = head.substr(0, nl);
-        head.remove_prefix(nl == std::string_view::npos ? head.size() : nl + 1);
-        if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
-        if (detail::is_blank_or_comment(line)) continue;
-        if (detail::scan_hex_line(line, nullptr).byte_count >= 3) return InputFormat::hex;
+    // The sniffed head may end inside a multi-byte character.
+    bool text = false;
+    for (std::size_t cut = 0; cut < 4 && cut <= head.size() && !text; ++cut) {
+        text = valid_utf8(head.substr(0, head.size() - cut));
     }
-    return InputFormat::raw;
+    if (!text || head.empty()) return InputFormat::raw;
+    // Text is a log or a manual: read as hex, which says which lines held no frame.
+    return InputFormat::hex;
 }
 
 Result<std::unique_ptr<ChunkSource>> open_source(const std::string& path, InputFormat format) {

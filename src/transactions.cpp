@@ -82,26 +82,35 @@ void Transactions::push(Frame&& frame) {
             break;
     }
 
-    const bool is_answer = record.kind == Kind::response || record.kind == Kind::exception;
+    // A frame seen with a bad CRC may still have reached its slave intact (the damage can
+    // be at the tap), so invalid frames take part in pairing by their reading.
+    const bool invalid = record.kind == Kind::invalid;
+    const bool is_answer = record.kind == Kind::response || record.kind == Kind::exception ||
+                           (invalid && answer_reading);
+    const bool is_request = record.kind == Kind::request || record.kind == Kind::broadcast ||
+                            (invalid && f.reading == Reading::request);
     if (is_answer) {
         if (matches_awaited) {
             Record& request = held_[*awaiting_];
             record.request_number = request.number;
             record.request = request.frame.bytes;
-            if (has_time(f.start) && has_time(request.frame.end)) {
+            // Inside a chunk the answer's start is a guess: no turnaround then.
+            if (has_time(f.silence_before) && has_time(request.frame.end)) {
                 record.latency = f.start - request.frame.end;
             }
             awaiting_.reset();
-        } else {
+        } else if (!invalid) {
             record.notes.push_back({note_id::unsolicited, "answer with no request"});
         }
-    } else if (record.kind == Kind::request || record.kind == Kind::broadcast) {
+    } else if (is_request) {
         // One master, one transaction at a time: a new request ends the wait.
         give_up_on_request("no answer before the next request");
     }
 
+    const bool awaits = record.kind == Kind::request ||
+                        (invalid && is_request && !options_.rules->is_broadcast(f.slave()));
     held_.push_back(std::move(record));
-    if (held_.back().kind == Kind::request) {
+    if (awaits) {
         awaiting_ = held_.size() - 1;
         const Frame& request = held_.back().frame;
         awaited_ = {request.slave(), request.function(), request.bytes};

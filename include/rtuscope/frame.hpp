@@ -34,6 +34,9 @@ enum class Reading : std::uint8_t { request, response, exception, unknown };
 struct Frame {
     Nanos start = kNoTime;  // first byte's start (estimated from the chunk timing)
     Nanos end = kNoTime;    // last byte's end
+    // Silence before the first byte when the input shows it (the frame began a chunk);
+    // kNoTime when it arrived inside a chunk and its start is only an estimate.
+    Nanos silence_before = kNoTime;
     std::vector<std::uint8_t> bytes;
     RecordClass cls = RecordClass::noise;
     Reading reading = Reading::unknown;

@@ -49,15 +49,26 @@ private:
         CrcStatus crc = CrcStatus::none;
     };
 
+    struct Search {
+        std::size_t length = 0;  // 0: none found
+        bool pending = false;    // more bytes could still give one
+    };
+    enum class Follows : std::uint8_t { boundary, nothing, unknown_yet };
+
     void decide(bool at_end);
+    [[nodiscard]] Search search_length(std::size_t at, bool at_end, bool confirm) const;
+    // Whether a frame ending at `end` is followed by a silence, the end or another frame.
+    [[nodiscard]] Follows what_follows(std::size_t end, bool at_end) const;
     Attempt attempt_at(std::size_t at, bool at_end) const;
     [[nodiscard]] std::size_t next_gap(std::size_t after) const;
     [[nodiscard]] bool gap_before(std::size_t at) const;
     void classify_unframed(std::size_t from, std::size_t to);
     // Whether the pairing stage awaits an answer from this slave and function at `at`.
     [[nodiscard]] bool awaits_answer(std::span<const std::uint8_t> head, Nanos at) const;
-    // Request or answer by length alone (or by the awaited answer when both fit).
-    [[nodiscard]] Reading reading_by_shape(std::span<const std::uint8_t> frame, Nanos at) const;
+    // Request or answer by length alone (or by the awaited answer when both fit). With
+    // `any_length_fits_search`, codes whose length no field gives fit any length.
+    [[nodiscard]] Reading reading_by_shape(std::span<const std::uint8_t> frame, Nanos at,
+                                           bool any_length_fits_search) const;
     bool emit_if_truncated(std::size_t at, std::size_t n);
     void emit_chunk_as_frame(const Chunk& chunk);
     void emit(std::size_t at, std::size_t length, RecordClass cls, Reading reading,

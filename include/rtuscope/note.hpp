@@ -31,7 +31,7 @@ inline constexpr const char* unsolicited = "txn.unsolicited";  // answer with no
 // PDU decoding
 inline constexpr const char* byte_count_mismatch = "pdu.byte_count_mismatch";
 inline constexpr const char* malformed = "pdu.malformed";
-inline constexpr const char* mismatch_request = "pdu.request_mismatch";  // answer disagrees with request
+inline constexpr const char* request_mismatch = "pdu.request_mismatch";  // answer disagrees with request
 inline constexpr const char* illegal_value = "pdu.illegal_value";
 inline constexpr const char* unknown_function = "pdu.unknown_function";
 }  // namespace note_id
