@@ -403,6 +403,10 @@ void Framer::emit_chunk_as_frame(const Chunk& chunk) {
     if (has_time(chunk.time)) {
         frame.start = chunk.time - static_cast<Nanos>(chunk.bytes.size()) * char_time_;
     }
+    if (has_time(frame.start) && has_time(last_end_) && frame.start >= last_end_) {
+        frame.silence_before = frame.start - last_end_;
+    }
+    if (has_time(chunk.time)) last_end_ = chunk.time;
     frame.channel = chunk.channel;
     frame.source_line = chunk.source_line;
     frame.delimiter = Delimiter::line;

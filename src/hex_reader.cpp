@@ -50,11 +50,12 @@ constexpr std::array<std::string_view, 5> kWideSeparators = {
 };
 
 // Characters that may glue a decoration to the first byte: `TX:01`, `RX>01`, `主机：01`,
-// `[10:21:33]01`, sscom's `收←◆01`.
-constexpr std::array<std::string_view, 6> kWideGlue = {
+// `[10:21:33]01`, sscom's `收←◆01`, `接收←01`.
+constexpr std::array<std::string_view, 7> kWideGlue = {
     "\xEF\xBC\x9A",  // U+FF1A full-width colon
     "\xEF\xBC\x9E",  // U+FF1E full-width greater-than
     "\xE3\x80\x91",  // U+3011 right black lenticular bracket
+    "\xE2\x86\x90",  // U+2190 leftwards arrow
     "\xE2\x86\x92",  // U+2192 rightwards arrow
     "\xE2\x97\x86",  // U+25C6 black diamond
     "\xE2\x97\x87",  // U+25C7 white diamond
