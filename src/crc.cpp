@@ -56,10 +56,14 @@ CrcCheck check_crc(std::span<const std::uint8_t> frame) {
 
 const char* to_string(CrcStatus status) {
     switch (status) {
-        case CrcStatus::none: return "";
-        case CrcStatus::ok: return "ok";
-        case CrcStatus::bad: return "bad";
-        case CrcStatus::swapped: return "swapped";
+        case CrcStatus::none:
+            return "";
+        case CrcStatus::ok:
+            return "ok";
+        case CrcStatus::bad:
+            return "bad";
+        case CrcStatus::swapped:
+            return "swapped";
     }
     return "";
 }

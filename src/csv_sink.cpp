@@ -20,7 +20,7 @@ void put_field(std::string& line, std::string_view field) {
 }
 
 class CsvSink final : public RecordSink {
-public:
+  public:
     explicit CsvSink(std::FILE* out) : out_(out) {}
 
     void begin(const SessionInfo& /*session*/) override {
@@ -46,7 +46,8 @@ public:
         line += fmt::format(",{},{},", to_string(r.kind), to_string(r.frame.crc.status));
         if (r.request_number != 0) line += fmt::format("{}", r.request_number);
         line += ',';
-        if (has_time(r.latency)) line += fmt::format("{:.3f}", static_cast<double>(r.latency) / 1e6);
+        if (has_time(r.latency))
+            line += fmt::format("{:.3f}", static_cast<double>(r.latency) / 1e6);
         line += ',';
         put_field(line, record_summary(r));
         line += ',';
@@ -63,12 +64,14 @@ public:
         std::fflush(out_);
     }
 
-private:
+  private:
     std::FILE* out_;
 };
 
 }  // namespace
 
-std::unique_ptr<RecordSink> make_csv_sink(std::FILE* out) { return std::make_unique<CsvSink>(out); }
+std::unique_ptr<RecordSink> make_csv_sink(std::FILE* out) {
+    return std::make_unique<CsvSink>(out);
+}
 
 }  // namespace rtuscope

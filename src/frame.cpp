@@ -9,20 +9,28 @@ std::span<const std::uint8_t> Frame::pdu() const {
 
 const char* to_string(RecordClass cls) {
     switch (cls) {
-        case RecordClass::frame: return "frame";
-        case RecordClass::invalid: return "invalid";
-        case RecordClass::noise: return "noise";
+        case RecordClass::frame:
+            return "frame";
+        case RecordClass::invalid:
+            return "invalid";
+        case RecordClass::noise:
+            return "noise";
     }
     return "";
 }
 
 const char* to_string(Delimiter delimiter) {
     switch (delimiter) {
-        case Delimiter::gap: return "gap";
-        case Delimiter::length_crc: return "length+crc";
-        case Delimiter::crc_search: return "crc-search";
-        case Delimiter::end_of_input: return "end of input";
-        case Delimiter::line: return "line";
+        case Delimiter::gap:
+            return "gap";
+        case Delimiter::length_crc:
+            return "length+crc";
+        case Delimiter::crc_search:
+            return "crc-search";
+        case Delimiter::end_of_input:
+            return "end of input";
+        case Delimiter::line:
+            return "line";
     }
     return "";
 }

@@ -36,11 +36,13 @@ void add_crc_note(Frame& frame) {
     frame.notes.push_back(
         {bad ? note_id::crc_mismatch : note_id::crc_swapped,
          fmt::format("{} (expected {:02X} {:02X}, got {:02X} {:02X})",
-                     bad ? "CRC BAD" : "CRC bytes swapped", crc.expected & 0xFFU,
-                     crc.expected >> 8, crc.received & 0xFFU, crc.received >> 8)});
+                     bad ? "CRC BAD" : "CRC bytes swapped", crc.expected & 0xFFU, crc.expected >> 8,
+                     crc.received & 0xFFU, crc.received >> 8)});
 }
 
-double in_ms(Nanos t) { return static_cast<double>(t) / 1e6; }
+double in_ms(Nanos t) {
+    return static_cast<double>(t) / 1e6;
+}
 
 }  // namespace
 
@@ -62,8 +64,8 @@ void Framer::push(const Chunk& chunk) {
     auto channel_it = std::find(channels_.begin(), channels_.end(), chunk.channel);
     const auto channel = static_cast<std::uint16_t>(channel_it - channels_.begin());
     if (channel_it == channels_.end()) channels_.push_back(chunk.channel);
-    const bool channel_changed = !bytes_.empty() && pos_ < bytes_.size() &&
-                                 channel_.back() != channel;
+    const bool channel_changed =
+        !bytes_.empty() && pos_ < bytes_.size() && channel_.back() != channel;
 
     // The chunk's time is when its last byte arrived; earlier bytes are placed back to
     // back before it, but never before the previous byte (adapters deliver late).
@@ -97,7 +99,9 @@ void Framer::push(const Chunk& chunk) {
     decide(false);
 }
 
-void Framer::finish() { decide(true); }
+void Framer::finish() {
+    decide(true);
+}
 
 bool Framer::gap_before(std::size_t at) const {
     if (at >= bytes_.size()) return false;
@@ -186,8 +190,8 @@ Framer::Attempt Framer::attempt_at(std::size_t at, bool at_end) const {
                 candidate.crc = CrcStatus::ok;
                 candidate.delimiter = Delimiter::crc_search;
                 // Order, not shape, tells which way these go.
-                candidate.reading = prefer_response ? reading_for(Role::response, function)
-                                                    : Reading::request;
+                candidate.reading =
+                    prefer_response ? reading_for(Role::response, function) : Reading::request;
                 break;
             }
         }
@@ -436,7 +440,8 @@ void Framer::emit(std::size_t at, std::size_t length, RecordClass cls, Reading r
     frame.channel = channels_[channel_[at]];
     frame.source_line = line_[at];
     // A frame cut short has no CRC to be wrong.
-    const bool cut_short = !notes.empty() && std::string_view(notes.front().id) == note_id::truncated;
+    const bool cut_short =
+        !notes.empty() && std::string_view(notes.front().id) == note_id::truncated;
     if (cut_short) frame.crc = {};
     if (cls != RecordClass::noise && !cut_short) add_crc_note(frame);
     frame.notes.insert(frame.notes.end(), notes.begin(), notes.end());
@@ -463,9 +468,8 @@ void Framer::add_timing_notes(Frame& frame, std::size_t at, std::size_t length) 
         if (measured(j)) widest = std::max(widest, gap_[j]);
     }
     if (widest > t15_) {
-        frame.notes.push_back(
-            {note_id::gap_inside, fmt::format("silence of {:.2f} ms inside (> t1.5)",
-                                              in_ms(widest))});
+        frame.notes.push_back({note_id::gap_inside,
+                               fmt::format("silence of {:.2f} ms inside (> t1.5)", in_ms(widest))});
     }
 }
 

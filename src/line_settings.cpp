@@ -17,8 +17,12 @@ Nanos LineSettings::char_time() const {
 
 // Above 19200 baud the specification fixes t1.5 and t3.5 so that fast lines do not need
 // sub-millisecond timers.
-Nanos LineSettings::t15() const { return baud > 19200 ? 750'000 : char_time() * 3 / 2; }
-Nanos LineSettings::t35() const { return baud > 19200 ? 1'750'000 : char_time() * 7 / 2; }
+Nanos LineSettings::t15() const {
+    return baud > 19200 ? 750'000 : char_time() * 3 / 2;
+}
+Nanos LineSettings::t35() const {
+    return baud > 19200 ? 1'750'000 : char_time() * 7 / 2;
+}
 
 std::string LineSettings::format() const {
     return fmt::format("{}{}{}", data_bits, parity, stop_bits);
@@ -26,9 +30,10 @@ std::string LineSettings::format() const {
 
 Result<LineSettings> parse_line_format(std::string_view text, LineSettings base) {
     auto bad = [&] {
-        return Error{fmt::format("bad line format \"{}\" (expected data bits 5-8, parity N/E/O, "
-                                 "stop bits 1-2, e.g. 8N1 or 8E1)",
-                                 text)};
+        return Error{
+            fmt::format("bad line format \"{}\" (expected data bits 5-8, parity N/E/O, "
+                        "stop bits 1-2, e.g. 8N1 or 8E1)",
+                        text)};
     };
     if (text.size() != 3) return bad();
     const char data = text[0];
@@ -48,8 +53,8 @@ Result<std::uint32_t> parse_baud(std::string_view text) {
     const auto* end = text.data() + text.size();
     const auto [ptr, ec] = std::from_chars(text.data(), end, baud);
     if (ec != std::errc{} || ptr != end || baud < 50 || baud > 4'000'000) {
-        return Error{fmt::format("bad baud rate \"{}\" (expected a number from 50 to 4000000)",
-                                 text)};
+        return Error{
+            fmt::format("bad baud rate \"{}\" (expected a number from 50 to 4000000)", text)};
     }
     return baud;
 }

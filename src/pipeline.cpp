@@ -17,12 +17,24 @@ void count(Totals& totals, const Record& record) {
     ++totals.records;
     totals.bytes += record.frame.bytes.size();
     switch (record.kind) {
-        case Kind::request: ++totals.requests; break;
-        case Kind::response: ++totals.responses; break;
-        case Kind::exception: ++totals.exceptions; break;
-        case Kind::broadcast: ++totals.broadcasts; break;
-        case Kind::unknown: ++totals.unknown; break;
-        case Kind::invalid: ++totals.invalid; break;
+        case Kind::request:
+            ++totals.requests;
+            break;
+        case Kind::response:
+            ++totals.responses;
+            break;
+        case Kind::exception:
+            ++totals.exceptions;
+            break;
+        case Kind::broadcast:
+            ++totals.broadcasts;
+            break;
+        case Kind::unknown:
+            ++totals.unknown;
+            break;
+        case Kind::invalid:
+            ++totals.invalid;
+            break;
         case Kind::noise:
             ++totals.noise_runs;
             totals.noise_bytes += record.frame.bytes.size();

@@ -35,17 +35,27 @@ FrameLength device_identification_answer(std::span<const std::uint8_t> head) {
 FrameLength request_length(std::span<const std::uint8_t> head) {
     const std::uint8_t fc = head[1];
     switch (fc) {
-        case 0x01: case 0x02: case 0x03: case 0x04: case 0x05: case 0x06:
+        case 0x01:
+        case 0x02:
+        case 0x03:
+        case 0x04:
+        case 0x05:
+        case 0x06:
             return FrameLength::fixed_at(8);
-        case 0x07: case 0x0B: case 0x0C: case 0x11:
+        case 0x07:
+        case 0x0B:
+        case 0x0C:
+        case 0x11:
             return FrameLength::fixed_at(4);
         case 0x08:  // sub-function 0000 echoes any amount of data
             if (head.size() < 4) return FrameLength::need(4);
             return (head[2] == 0 && head[3] == 0) ? FrameLength::search_crc()
                                                   : FrameLength::fixed_at(8);
-        case 0x0F: case 0x10:  // addr fc start qty count data
+        case 0x0F:
+        case 0x10:  // addr fc start qty count data
             return counted(head, 6);
-        case 0x14: case 0x15:
+        case 0x14:
+        case 0x15:
             return counted(head, 2);
         case 0x16:
             return FrameLength::fixed_at(10);
@@ -66,10 +76,21 @@ FrameLength response_length(std::span<const std::uint8_t> head) {
     const std::uint8_t fc = head[1];
     if (fc & 0x80U) return FrameLength::fixed_at(5);  // addr, fc|0x80, exception code, CRC
     switch (fc) {
-        case 0x01: case 0x02: case 0x03: case 0x04: case 0x0C: case 0x11:
-        case 0x14: case 0x15: case 0x17:
+        case 0x01:
+        case 0x02:
+        case 0x03:
+        case 0x04:
+        case 0x0C:
+        case 0x11:
+        case 0x14:
+        case 0x15:
+        case 0x17:
             return counted(head, 2);
-        case 0x05: case 0x06: case 0x0B: case 0x0F: case 0x10:
+        case 0x05:
+        case 0x06:
+        case 0x0B:
+        case 0x0F:
+        case 0x10:
             return FrameLength::fixed_at(8);
         case 0x07:
             return FrameLength::fixed_at(5);
@@ -84,8 +105,7 @@ FrameLength response_length(std::span<const std::uint8_t> head) {
         }
         case 0x2B:
             if (head.size() < 3) return FrameLength::need(3);
-            return head[2] == 0x0E ? device_identification_answer(head)
-                                   : FrameLength::search_crc();
+            return head[2] == 0x0E ? device_identification_answer(head) : FrameLength::search_crc();
         default:
             return FrameLength::search_crc();
     }
@@ -100,12 +120,20 @@ FrameLength ProtocolRules::frame_length(std::span<const std::uint8_t> head, Role
 
 bool ProtocolRules::answer_is_echo(std::uint8_t /*slave*/, std::uint8_t function) const {
     switch (function) {
-        case 0x05: case 0x06: case 0x08: case 0x15: case 0x16: return true;
-        default: return false;
+        case 0x05:
+        case 0x06:
+        case 0x08:
+        case 0x15:
+        case 0x16:
+            return true;
+        default:
+            return false;
     }
 }
 
-bool ProtocolRules::is_broadcast(std::uint8_t slave) const { return slave == 0; }
+bool ProtocolRules::is_broadcast(std::uint8_t slave) const {
+    return slave == 0;
+}
 
 const ProtocolRules& standard_rules() {
     static const ProtocolRules rules;

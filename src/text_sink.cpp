@@ -23,29 +23,31 @@ std::string time_of_day(Nanos time) {
 const char* arrow(const Record& r) {
     switch (r.kind) {
         case Kind::request:
-        case Kind::broadcast: return "▶";
+        case Kind::broadcast:
+            return "▶";
         case Kind::response:
-        case Kind::exception: return "◀";
+        case Kind::exception:
+            return "◀";
         case Kind::invalid:
             if (r.frame.reading == Reading::request) return "▶";
             if (r.frame.reading != Reading::unknown) return "◀";
             return "?";
         case Kind::unknown:
-        case Kind::noise: return "?";
+        case Kind::noise:
+            return "?";
     }
     return "?";
 }
 
 class TextSink final : public RecordSink {
-public:
+  public:
     TextSink(std::FILE* out, TextOptions options) : out_(out), options_(options) {}
 
     void begin(const SessionInfo& s) override {
         const LineSettings& line = s.line;
         fmt::print(out_, "{}: {} input, {} {} (t1.5 {:.2f} ms, t3.5 {:.2f} ms){}\n", s.source.name,
-                   s.source.format, line.baud, line.format(),
-                   static_cast<double>(line.t15()) / 1e6, static_cast<double>(line.t35()) / 1e6,
-                   s.source.timed ? "" : ", no timing");
+                   s.source.format, line.baud, line.format(), static_cast<double>(line.t15()) / 1e6,
+                   static_cast<double>(line.t35()) / 1e6, s.source.timed ? "" : ", no timing");
     }
 
     void record(const Record& r) override {
@@ -109,14 +111,15 @@ public:
         std::fflush(out_);
     }
 
-private:
+  private:
     std::string time_column(Nanos time) {
         if (!has_time(time)) return "-";
         if (!has_time(first_)) first_ = time;
         switch (options_.time_format) {
             case TimeFormat::absolute:
                 return time >= kAbsoluteFrom ? time_of_day(time) : seconds_text(time);
-            case TimeFormat::relative: return seconds_text(time - first_);
+            case TimeFormat::relative:
+                return seconds_text(time - first_);
             case TimeFormat::delta:
                 return seconds_text(has_time(previous_) ? time - previous_ : 0);
         }
@@ -125,11 +128,15 @@ private:
 
     static fmt::terminal_color colour_of(const Record& r) {
         switch (r.kind) {
-            case Kind::response: return fmt::terminal_color::cyan;
-            case Kind::exception: return fmt::terminal_color::yellow;
+            case Kind::response:
+                return fmt::terminal_color::cyan;
+            case Kind::exception:
+                return fmt::terminal_color::yellow;
             case Kind::invalid:
-            case Kind::noise: return fmt::terminal_color::red;
-            default: return fmt::terminal_color::white;
+            case Kind::noise:
+                return fmt::terminal_color::red;
+            default:
+                return fmt::terminal_color::white;
         }
     }
 

@@ -6,13 +6,20 @@ namespace rtuscope {
 
 const char* to_string(Kind kind) {
     switch (kind) {
-        case Kind::request: return "request";
-        case Kind::response: return "response";
-        case Kind::exception: return "exception";
-        case Kind::broadcast: return "broadcast";
-        case Kind::unknown: return "unknown";
-        case Kind::invalid: return "invalid";
-        case Kind::noise: return "noise";
+        case Kind::request:
+            return "request";
+        case Kind::response:
+            return "response";
+        case Kind::exception:
+            return "exception";
+        case Kind::broadcast:
+            return "broadcast";
+        case Kind::unknown:
+            return "unknown";
+        case Kind::invalid:
+            return "invalid";
+        case Kind::noise:
+            return "noise";
     }
     return "";
 }
@@ -56,22 +63,25 @@ void Transactions::push(Frame&& frame) {
     // A request that has waited past the timeout by the time this frame starts.
     if (awaiting_ && has_time(f.start) && has_time(awaited_end_) &&
         f.start - awaited_end_ > options_.timeout) {
-        give_up_on_request(fmt::format("no answer within {:g} s",
-                                        static_cast<double>(options_.timeout) / 1e9));
+        give_up_on_request(
+            fmt::format("no answer within {:g} s", static_cast<double>(options_.timeout) / 1e9));
     }
 
-    const bool answer_reading =
-        f.reading == Reading::response || f.reading == Reading::exception;
-    const bool matches_awaited = awaiting_ && f.slave() == awaited_.slave &&
-                                 (f.function() & 0x7FU) == awaited_.function;
+    const bool answer_reading = f.reading == Reading::response || f.reading == Reading::exception;
+    const bool matches_awaited =
+        awaiting_ && f.slave() == awaited_.slave && (f.function() & 0x7FU) == awaited_.function;
 
     switch (f.cls) {
-        case RecordClass::noise: record.kind = Kind::noise; break;
-        case RecordClass::invalid: record.kind = Kind::invalid; break;
+        case RecordClass::noise:
+            record.kind = Kind::noise;
+            break;
+        case RecordClass::invalid:
+            record.kind = Kind::invalid;
+            break;
         case RecordClass::frame:
             if (f.reading == Reading::request) {
-                record.kind = options_.rules->is_broadcast(f.slave()) ? Kind::broadcast
-                                                                      : Kind::request;
+                record.kind =
+                    options_.rules->is_broadcast(f.slave()) ? Kind::broadcast : Kind::request;
             } else if (answer_reading) {
                 record.kind = f.reading == Reading::exception ? Kind::exception : Kind::response;
             } else if (matches_awaited) {

@@ -34,7 +34,7 @@ inline constexpr Nanos kMs = 1'000'000;
 
 // Builds a chunk stream on a simulated 9600 8N1 line.
 class Line {
-public:
+  public:
     explicit Line(LineSettings settings = {}) : char_(settings.char_time()) {}
 
     // Bytes sent back to back, delivered one byte per chunk (a logic analyser).
@@ -68,7 +68,7 @@ public:
     [[nodiscard]] const std::vector<Chunk>& chunks() const { return chunks_; }
     [[nodiscard]] Nanos char_time() const { return char_; }
 
-private:
+  private:
     Nanos char_;
     Nanos now_ = 0;
     std::vector<Chunk> chunks_;
@@ -102,15 +102,17 @@ struct Harness {
         std::vector<Chunk> chunks;
         for (std::size_t i = 0; i < bytes.size(); i += chunk) {
             Chunk c;
-            c.bytes.assign(bytes.begin() + static_cast<std::ptrdiff_t>(i),
-                           bytes.begin() + static_cast<std::ptrdiff_t>(std::min(bytes.size(), i + chunk)));
+            c.bytes.assign(
+                bytes.begin() + static_cast<std::ptrdiff_t>(i),
+                bytes.begin() + static_cast<std::ptrdiff_t>(std::min(bytes.size(), i + chunk)));
             chunks.push_back(std::move(c));
         }
         return run(chunks);
     }
     [[nodiscard]] std::size_t output_bytes() const {
-        return std::accumulate(records.begin(), records.end(), std::size_t{0},
-                               [](std::size_t n, const Record& r) { return n + r.frame.bytes.size(); });
+        return std::accumulate(
+            records.begin(), records.end(), std::size_t{0},
+            [](std::size_t n, const Record& r) { return n + r.frame.bytes.size(); });
     }
 
     std::vector<Record> records;

@@ -1,22 +1,26 @@
-#include "rtuscope/crc.hpp"
-
 #include <gtest/gtest.h>
 
 #include <array>
 #include <string_view>
 #include <vector>
 
+#include "rtuscope/crc.hpp"
+
 namespace rtuscope {
 namespace {
 
-std::vector<std::uint8_t> bytes_of(std::string_view text) { return {text.begin(), text.end()}; }
+std::vector<std::uint8_t> bytes_of(std::string_view text) {
+    return {text.begin(), text.end()};
+}
 
 TEST(Crc, PublishedCheckValue) {
     // CRC-16/MODBUS check value from the CRC catalogue (Greg Cook, "crc-16-modbus").
     EXPECT_EQ(crc16_modbus(bytes_of("123456789")), 0x4B37);
 }
 
-TEST(Crc, EmptyInputIsInitialValue) { EXPECT_EQ(crc16_modbus({}), 0xFFFF); }
+TEST(Crc, EmptyInputIsInitialValue) {
+    EXPECT_EQ(crc16_modbus({}), 0xFFFF);
+}
 
 TEST(Crc, ModbusSerialLineSpecExample) {
     // Modbus over Serial Line v1.02: read of 0x006B x3 from slave 0x11 ends 76 87.

@@ -1,9 +1,8 @@
 // The framer on each real-world case of issue #2, fed through the pairing stage as in the
 // pipeline (the pairing tells the framer which answer the bus awaits).
-#include "rtuscope/framer.hpp"
-
 #include <gtest/gtest.h>
 
+#include "rtuscope/framer.hpp"
 #include "support.hpp"
 
 namespace rtuscope {
@@ -17,10 +16,11 @@ using test::kMs;
 using test::Line;
 using test::with_crc;
 
-const Bytes kRead = with_crc({0x01, 0x03, 0x00, 0x00, 0x00, 0x02});            // 8 bytes
+const Bytes kRead = with_crc({0x01, 0x03, 0x00, 0x00, 0x00, 0x02});              // 8 bytes
 const Bytes kReadAnswer = with_crc({0x01, 0x03, 0x04, 0x17, 0xF8, 0x00, 0x2A});  // 9 bytes
-const Bytes kWrite = with_crc({0x02, 0x06, 0x00, 0x01, 0x00, 0x03});           // echo
-const Bytes kWriteMany = with_crc({0x03, 0x10, 0x00, 0x01, 0x00, 0x02, 0x04, 0x00, 0x0A, 0x01, 0x02});
+const Bytes kWrite = with_crc({0x02, 0x06, 0x00, 0x01, 0x00, 0x03});             // echo
+const Bytes kWriteMany =
+    with_crc({0x03, 0x10, 0x00, 0x01, 0x00, 0x02, 0x04, 0x00, 0x0A, 0x01, 0x02});
 const Bytes kWriteManyAnswer = with_crc({0x03, 0x10, 0x00, 0x01, 0x00, 0x02});
 
 void expect_frame(const Record& r, const Bytes& bytes, Kind kind) {
@@ -41,8 +41,8 @@ TEST(Framer, UsbBatchesWithRequestAndAnswerInOneChunk) {
         .deliver_at(48 * kMs, concat({kWrite, Bytes(kWrite.begin(), kWrite.begin() + 3)}))
         .deliver_at(64 * kMs, Bytes(kWrite.begin() + 3, kWrite.end()))
         .deliver_at(96 * kMs, Bytes(kWriteMany.begin(), kWriteMany.begin() + 5))
-        .deliver_at(112 * kMs, concat({Bytes(kWriteMany.begin() + 5, kWriteMany.end()),
-                                       kWriteManyAnswer}));
+        .deliver_at(112 * kMs,
+                    concat({Bytes(kWriteMany.begin() + 5, kWriteMany.end()), kWriteManyAnswer}));
     Harness h;
     const auto& r = h.run(line.chunks());
     ASSERT_EQ(r.size(), 6U);
@@ -118,7 +118,7 @@ TEST(Framer, SequenceChoosesAnswerReadingWhenAnAnswerIsAwaited) {
 TEST(Framer, GarbageAroundFramesBecomesNoise) {
     Line line;
     line.send_chunk({0xFF, 0x13, 0x00}).silence(10);
-    line.send_chunk(concat({{0x01, 0x03}, kRead})).silence(4);           // header-like
+    line.send_chunk(concat({{0x01, 0x03}, kRead})).silence(4);               // header-like
     line.send_chunk(concat({kReadAnswer, {0x05, 0x06, 0x00}})).silence(10);  // after, header-like
     line.send_chunk(concat({{0x01, 0x03, 0x00}, kWrite})).silence(10);
     line.send_chunk(kWrite).silence(10);
@@ -162,8 +162,16 @@ TEST(Framer, TruncatedFrameThenNextFrameFound) {
 // Case 6: raw bytes with no timing at all: length and CRC only.
 TEST(Framer, RawBytesWithoutTiming) {
     const Bytes exception = with_crc({0x01, 0x83, 0x02});
-    const Bytes stream = concat({{0x00}, kRead, kReadAnswer, {0x00}, kWriteMany, kWriteManyAnswer,
-                                 {0x12, 0x34}, kRead, exception, {0xFE}});
+    const Bytes stream = concat({{0x00},
+                                 kRead,
+                                 kReadAnswer,
+                                 {0x00},
+                                 kWriteMany,
+                                 kWriteManyAnswer,
+                                 {0x12, 0x34},
+                                 kRead,
+                                 exception,
+                                 {0xFE}});
     for (std::size_t chunk : {std::size_t{4096}, std::size_t{1}, std::size_t{5}}) {
         Harness h;
         const auto& r = h.run_raw(stream, chunk);
@@ -262,8 +270,8 @@ TEST(Framer, GapInsideAFrameIsNoted) {
 TEST(Framer, HexLinesAreOneFrameEachRightOrWrong) {
     Bytes bad = kReadAnswer;
     bad[5] ^= 0xFF;
-    std::vector<Chunk> lines{{kNoTime, "", kRead, 1}, {kNoTime, "", bad, 2},
-                             {kNoTime, "", {0x01, 0x03, 0x00}, 3}};
+    std::vector<Chunk> lines{
+        {kNoTime, "", kRead, 1}, {kNoTime, "", bad, 2}, {kNoTime, "", {0x01, 0x03, 0x00}, 3}};
     Harness h(true);
     const auto& r = h.run(lines);
     ASSERT_EQ(r.size(), 3U);

@@ -1,18 +1,17 @@
 // The whole pipeline on real captures and on broken input.
-#include "rtuscope/pipeline.hpp"
-
 #include <gtest/gtest.h>
 
 #include <string>
 #include <vector>
 
+#include "rtuscope/pipeline.hpp"
 #include "rtuscope/sources.hpp"
 
 namespace rtuscope {
 namespace {
 
 class CollectingSink final : public RecordSink {
-public:
+  public:
     void begin(const SessionInfo& s) override { session = s; }
     void record(const Record& r) override { records.push_back(r); }
     void end(const Totals& t, const std::vector<std::string>& r) override {
@@ -91,8 +90,8 @@ TEST(Pipeline, BadLineStopsWithErrorAfterDecodingEverythingBefore) {
 }
 
 TEST(Pipeline, OptionsOverrideTheCaptureHeader) {
-    auto source = source_from_memory("# rtuscope capture v1\n# serial 19200 8E1\n0.1 01\n",
-                                     "cap", InputFormat::capture);
+    auto source = source_from_memory("# rtuscope capture v1\n# serial 19200 8E1\n0.1 01\n", "cap",
+                                     InputFormat::capture);
     ASSERT_TRUE(source);
     PipelineOptions options;
     options.baud = 4800;

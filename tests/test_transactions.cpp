@@ -1,9 +1,8 @@
 // Pairing: requests with their answers, turnaround, exceptions, broadcasts, requests
 // without answer, answers without request, echoes told apart by order and timing.
-#include "rtuscope/transactions.hpp"
-
 #include <gtest/gtest.h>
 
+#include "rtuscope/transactions.hpp"
 #include "support.hpp"
 
 namespace rtuscope {

@@ -16,23 +16,23 @@ namespace rtuscope {
 // Bytes that arrived together: what one read() on a tty returns, one line of a capture
 // file, one byte of a logic-analyser export, one line of a hex log.
 struct Chunk {
-    Nanos time = kNoTime;   // when the LAST byte of the chunk was received
-    std::string channel;    // "@NAME" of a two-port tap; empty when there is one line
+    Nanos time = kNoTime;  // when the LAST byte of the chunk was received
+    std::string channel;   // "@NAME" of a two-port tap; empty when there is one line
     std::vector<std::uint8_t> bytes;
-    int source_line = 0;    // line in the input file, 0 when the source has no lines
+    int source_line = 0;  // line in the input file, 0 when the source has no lines
 };
 
 // What a source knows about itself once its header (if any) has been read.
 struct SourceInfo {
-    std::string name;                        // file name for messages, "-" for stdin
-    std::string format;                      // "capture", "raw", "hex"
-    std::optional<LineSettings> line;        // from the capture header, if it has one
-    bool timed = false;                      // chunks carry times
-    bool chunk_is_frame = false;             // hex logs: each line is exactly one frame
+    std::string name;                  // file name for messages, "-" for stdin
+    std::string format;                // "capture", "raw", "hex"
+    std::optional<LineSettings> line;  // from the capture header, if it has one
+    bool timed = false;                // chunks carry times
+    bool chunk_is_frame = false;       // hex logs: each line is exactly one frame
 };
 
 class ChunkSource {
-public:
+  public:
     virtual ~ChunkSource() = default;
     [[nodiscard]] virtual const SourceInfo& info() const = 0;
     // Fills `out` and returns true, returns false at the end of input, or an Error

@@ -31,8 +31,8 @@ struct DecodedPdu {
     std::string summary;        // key fields, e.g. "0x0000 x2" or "2 registers: 0x1818 0x0000"
     bool exception = false;
     std::uint8_t exception_code = 0;
-    Notes notes;                     // pdu.* diagnostics
-    std::vector<DataBlock> blocks;   // register/bit values, when the PDU carries any
+    Notes notes;                    // pdu.* diagnostics
+    std::vector<DataBlock> blocks;  // register/bit values, when the PDU carries any
 };
 
 // `pdu` is the function code and data (no address, no CRC). `request_pdu` is the PDU of

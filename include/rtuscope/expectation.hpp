@@ -17,7 +17,7 @@ struct AwaitedAnswer {
 };
 
 class AnswerExpectation {
-public:
+  public:
     virtual ~AnswerExpectation() = default;
     // The request still waiting for its answer at time `at` (kNoTime when the input has
     // no timing), or nullptr.

@@ -29,7 +29,7 @@ struct FramerOptions {
 };
 
 class Framer {
-public:
+  public:
     using Emit = std::function<void(Frame&&)>;
 
     Framer(FramerOptions options, Emit emit);
@@ -39,7 +39,7 @@ public:
     // No more input: decides and emits everything still buffered.
     void finish();
 
-private:
+  private:
     enum class Outcome : std::uint8_t { frame, no_frame, need_more };
     struct Attempt {
         Outcome outcome = Outcome::no_frame;
@@ -84,8 +84,8 @@ private:
     // Bytes not yet emitted, from index `pos_` on, with what is known of each byte's timing.
     std::vector<std::uint8_t> bytes_;
     std::vector<Nanos> byte_end_;
-    std::vector<Nanos> gap_;        // silence before the byte; kNoTime inside a chunk
-    std::vector<bool> exact_;       // this byte and the one before came alone (per-byte timing)
+    std::vector<Nanos> gap_;   // silence before the byte; kNoTime inside a chunk
+    std::vector<bool> exact_;  // this byte and the one before came alone (per-byte timing)
     std::vector<std::uint16_t> channel_;
     std::vector<int> line_;
     std::size_t pos_ = 0;

@@ -20,8 +20,8 @@ namespace note_id {
 inline constexpr const char* crc_mismatch = "frame.crc_mismatch";
 inline constexpr const char* crc_swapped = "frame.crc_swapped";
 inline constexpr const char* truncated = "frame.truncated";
-inline constexpr const char* gap_inside = "frame.gap_inside";        // > t1.5 between two bytes
-inline constexpr const char* short_gap = "frame.short_gap";          // < t3.5 before the frame
+inline constexpr const char* gap_inside = "frame.gap_inside";            // > t1.5 between two bytes
+inline constexpr const char* short_gap = "frame.short_gap";              // < t3.5 before the frame
 inline constexpr const char* split_by_length = "frame.split_by_length";  // not delimited by a gap
 inline constexpr const char* unknown_length = "frame.unknown_length";  // length found by CRC search
 inline constexpr const char* noise = "frame.noise";
@@ -31,7 +31,8 @@ inline constexpr const char* unsolicited = "txn.unsolicited";  // answer with no
 // PDU decoding
 inline constexpr const char* byte_count_mismatch = "pdu.byte_count_mismatch";
 inline constexpr const char* malformed = "pdu.malformed";
-inline constexpr const char* request_mismatch = "pdu.request_mismatch";  // answer disagrees with request
+inline constexpr const char* request_mismatch =
+    "pdu.request_mismatch";  // answer disagrees with request
 inline constexpr const char* illegal_value = "pdu.illegal_value";
 inline constexpr const char* unknown_function = "pdu.unknown_function";
 }  // namespace note_id

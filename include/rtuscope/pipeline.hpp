@@ -16,8 +16,8 @@
 namespace rtuscope {
 
 struct PipelineOptions {
-    std::optional<std::uint32_t> baud;         // overrides the capture header
-    std::optional<LineSettings> format;        // data/parity/stop bits; overrides the header
+    std::optional<std::uint32_t> baud;   // overrides the capture header
+    std::optional<LineSettings> format;  // data/parity/stop bits; overrides the header
     Nanos timeout = kNanosPerSecond;
     const ProtocolRules* rules = &standard_rules();
 };
@@ -47,7 +47,7 @@ struct Totals {
 };
 
 class RecordSink {
-public:
+  public:
     virtual ~RecordSink() = default;
     virtual void begin(const SessionInfo& session) = 0;
     virtual void record(const Record& record) = 0;

@@ -33,7 +33,7 @@ struct FrameLength {
 };
 
 class ProtocolRules {
-public:
+  public:
     virtual ~ProtocolRules() = default;
 
     // Length of an ADU that starts with `head` (address first), read as `role`.

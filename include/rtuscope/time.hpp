@@ -11,6 +11,8 @@ using Nanos = std::int64_t;
 inline constexpr Nanos kNoTime = std::numeric_limits<Nanos>::min();
 inline constexpr Nanos kNanosPerSecond = 1'000'000'000;
 
-inline constexpr bool has_time(Nanos t) { return t != kNoTime; }
+inline constexpr bool has_time(Nanos t) {
+    return t != kNoTime;
+}
 
 }  // namespace rtuscope

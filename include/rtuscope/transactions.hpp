@@ -11,10 +11,10 @@
 #include <string>
 #include <vector>
 
+#include "rtuscope/decoder.hpp"
 #include "rtuscope/expectation.hpp"
 #include "rtuscope/frame.hpp"
 #include "rtuscope/protocol_rules.hpp"
-#include "rtuscope/decoder.hpp"
 
 namespace rtuscope {
 
@@ -47,7 +47,7 @@ struct TransactionOptions {
 };
 
 class Transactions : public AnswerExpectation {
-public:
+  public:
     using Emit = std::function<void(Record&&)>;
 
     Transactions(TransactionOptions options, Emit emit);
@@ -57,15 +57,15 @@ public:
 
     [[nodiscard]] const AwaitedAnswer* awaited(Nanos at) const override;
 
-private:
+  private:
     void give_up_on_request(std::string why);
     void release();
 
     TransactionOptions options_;
     Emit emit_;
     std::uint64_t next_number_ = 1;
-    std::deque<Record> held_;                // the first is the awaited request, if any
-    std::optional<std::size_t> awaiting_;    // index into held_ of the awaited request
+    std::deque<Record> held_;              // the first is the awaited request, if any
+    std::optional<std::size_t> awaiting_;  // index into held_ of the awaited request
     AwaitedAnswer awaited_;
     Nanos awaited_end_ = kNoTime;
 };

@@ -1,15 +1,16 @@
 // rtuscope: a passive Modbus RTU bus analyser. This file only sets up the subcommands;
 // the work is in the library, and errors are printed in one place per command.
-#include <CLI/CLI.hpp>
 #include <fmt/format.h>
 
+#include <CLI/CLI.hpp>
 #include <exception>
 
 #include "decode_command.hpp"
 
 int main(int argc, char** argv) {
-    CLI::App app{"rtuscope: a passive Modbus RTU bus analyser. It frames, CRC-checks, pairs and "
-                 "decodes the traffic of an RS-485 line, and never transmits."};
+    CLI::App app{
+        "rtuscope: a passive Modbus RTU bus analyser. It frames, CRC-checks, pairs and "
+        "decodes the traffic of an RS-485 line, and never transmits."};
     app.set_version_flag("--version", "rtuscope 0.1.0");
     app.require_subcommand(1);
     int exit_code = 0;
