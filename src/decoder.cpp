@@ -295,7 +295,7 @@ void read_bits_response(Decoder& d, DataTable table, std::string_view one, std::
     std::vector<std::uint16_t> bits = bits_of(bytes, n);
     d.out.summary = listed(bits, one, many, true);
     if (asked && !bits.empty())
-        d.out.blocks.push_back({table, asked->start, std::move(bits), false});
+        d.out.blocks.push_back({table, asked->start, std::move(bits), false, {}});
 }
 
 // 6.3 / 6.4 / 6.17 responses: registers, two bytes each.
@@ -325,7 +325,7 @@ void read_registers_response(Decoder& d, DataTable table) {
     std::vector<std::uint16_t> values = words_of(bytes);
     d.out.summary = listed(values, "register", "registers", false);
     if (asked && !values.empty()) {
-        d.out.blocks.push_back({table, asked->start, std::move(values), false});
+        d.out.blocks.push_back({table, asked->start, std::move(values), false, {}});
     }
 }
 
@@ -360,8 +360,11 @@ void write_single_coil(Decoder& d) {
         d.note(note_id::illegal_value,
                fmt::format("coil value 0x{:04X}, 0xFF00 or 0x0000 expected", *value));
     } else if (address && value) {
-        d.out.blocks.push_back(
-            {DataTable::coils, *address, {static_cast<std::uint16_t>(*value == kCoilOn)}, true});
+        d.out.blocks.push_back({DataTable::coils,
+                                *address,
+                                {static_cast<std::uint16_t>(*value == kCoilOn)},
+                                true,
+                                {}});
     }
     if (d.is_response()) d.check_echo(4, single_coil_text(d.req));
 }
@@ -387,7 +390,7 @@ void write_single_register(Decoder& d) {
     const auto value = u16_at(d.data, 2);
     d.out.summary = single_register_text(d.data);
     if (address && value) {
-        d.out.blocks.push_back({DataTable::holding_registers, *address, {*value}, true});
+        d.out.blocks.push_back({DataTable::holding_registers, *address, {*value}, true, {}});
     }
     if (d.is_response()) d.check_echo(4, single_register_text(d.req));
 }
@@ -426,8 +429,11 @@ void write_multiple_request(Decoder& d, bool bits) {
     if (!values.empty()) {
         d.out.summary += ": " + (bits ? bit_list(values) : word_list(values));
         if (start) {
-            d.out.blocks.push_back({bits ? DataTable::coils : DataTable::holding_registers, *start,
-                                    std::move(values), true});
+            d.out.blocks.push_back({bits ? DataTable::coils : DataTable::holding_registers,
+                                    *start,
+                                    std::move(values),
+                                    true,
+                                    {}});
         }
     }
 }
@@ -512,7 +518,7 @@ void read_write_request(Decoder& d) {
             s += ": " + word_list(values);
             if (write_start) {
                 d.out.blocks.push_back(
-                    {DataTable::holding_registers, *write_start, std::move(values), true});
+                    {DataTable::holding_registers, *write_start, std::move(values), true, {}});
             }
         }
     }

@@ -59,4 +59,20 @@ Result<std::uint32_t> parse_baud(std::string_view text) {
     return baud;
 }
 
+Result<LineSettings> parse_line_settings(std::string_view text) {
+    const auto space = text.find(' ');
+    if (space == std::string_view::npos) {
+        return Error{
+            fmt::format("bad line \"{}\" (expected baud and format, e.g. \"9600 8N1\")", text)};
+    }
+    auto baud = parse_baud(text.substr(0, space));
+    if (!baud) return baud.error();
+    std::string_view format = text.substr(space);
+    while (!format.empty() && format.front() == ' ') format.remove_prefix(1);
+    auto line = parse_line_format(format);
+    if (!line) return line.error();
+    line->baud = *baud;
+    return line;
+}
+
 }  // namespace rtuscope

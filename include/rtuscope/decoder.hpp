@@ -24,6 +24,9 @@ struct DataBlock {
     std::uint16_t start = 0;
     std::vector<std::uint16_t> values;
     bool write = false;  // carried by a write request (or its echo)
+    // A device's own register table (a profile's non-standard function code); when set it
+    // replaces `table`.
+    std::string custom_table;
 };
 
 struct DecodedPdu {

@@ -30,5 +30,7 @@ struct LineSettings {
 // "8N1", "8E1", "7E1", "8N2", case-insensitive.
 Result<LineSettings> parse_line_format(std::string_view text, LineSettings base = {});
 Result<std::uint32_t> parse_baud(std::string_view text);
+// "9600 8E1": baud rate and format, as profiles and bus files give them.
+Result<LineSettings> parse_line_settings(std::string_view text);
 
 }  // namespace rtuscope

@@ -32,15 +32,15 @@ struct Register {
     std::string table = "holding";  // "holding", "input", "coil", "discrete" or a custom
                                     // table of a non-standard function code
     std::uint16_t address = 0;
-    std::string name;               // unique in the profile (after formula expansion)
+    std::string name;  // unique in the profile (after formula expansion)
     ValueType type = ValueType::u16;
     WordOrder word_order = WordOrder::high_first;  // u32, i32, f32
-    std::uint16_t length = 1;       // registers: 1 for 16-bit, 2 for 32-bit, n for strings
-    double scale = 1.0;             // value = raw * scale (decimals d gives scale 10^-d)
-    int decimals = -1;              // digits to print; -1: as many as the scale implies
+    std::uint16_t length = 1;  // registers: 1 for 16-bit, 2 for 32-bit, n for strings
+    double scale = 1.0;        // value = raw * scale (decimals d gives scale 10^-d)
+    int decimals = -1;         // digits to print; -1: as many as the scale implies
     std::string unit;
     Access access = Access::read;
-    std::optional<double> min;      // valid range, in scaled units
+    std::optional<double> min;  // valid range, in scaled units
     std::optional<double> max;
     std::string description;
     std::map<std::uint32_t, std::string> labels;  // enum values, or bit number -> bit name
@@ -53,34 +53,38 @@ struct Register {
 // standard). Lengths are whole ADUs: address + function + data + CRC.
 struct FunctionOverride {
     std::uint8_t code = 0;
-    std::string name;                 // "Set correction coefficient"
-    std::size_t request_length = 0;   // 0: as the standard says
+    std::string name;                // "Set correction coefficient"
+    std::size_t request_length = 0;  // 0: as the standard says
     enum class Answer : std::uint8_t { standard, echo, none } answer = Answer::standard;
     // Layout of the request data, so that its value can be explained:
     // "address_value" (like FC06: a 16-bit address then a 16-bit value), or "" (raw).
     std::string layout;
-    std::string table = "holding";    // the registers `address_value` refers to
+    std::string table = "holding";  // the registers `address_value` refers to
     SourcePos pos;
 };
 
 struct Profile {
-    std::string name;         // "zb-uvi485": what --device and the bus file use
-    std::string title;        // "ZB-UVI485 UV-intensity transmitter (Chongqing Zibo)"
-    std::string source;       // where the facts come from (manual, version)
-    std::string file;         // file it was read from ("<bundled>/zb-uvi485.toml")
+    std::string name;                  // "zb-uvi485": what --device and the bus file use
+    std::string title;                 // "ZB-UVI485 UV-intensity transmitter (Chongqing Zibo)"
+    std::string source;                // where the facts come from (manual, version)
+    std::string file;                  // file it was read from ("<bundled>/zb-uvi485.toml")
     std::optional<LineSettings> line;  // the device's default line settings
     std::uint8_t first_address = 1;    // valid slave addresses
     std::uint8_t last_address = 247;
     std::optional<std::uint8_t> broadcast;  // non-standard broadcast address (0xFF)
-    bool exception_answers = true;     // false: errors are answered with silence
-    std::uint16_t max_registers = 125; // per read request
+    bool exception_answers = true;          // false: errors are answered with silence
+    std::uint16_t max_registers = 125;      // per read request
     std::vector<FunctionOverride> functions;
-    std::vector<Register> registers;   // sorted by table, then address
+    std::vector<Register> registers;  // sorted by table, then address
 
     [[nodiscard]] const FunctionOverride* function(std::uint8_t code) const;
     // The register that starts at `address` in `table`, or nullptr.
     [[nodiscard]] const Register* register_at(const std::string& table,
                                               std::uint16_t address) const;
+    // The register whose addresses include `address` (the second half of a 32-bit value
+    // too), or nullptr.
+    [[nodiscard]] const Register* register_covering(const std::string& table,
+                                                    std::uint16_t address) const;
 };
 
 // One mistake in a profile file, with its position.
@@ -103,5 +107,8 @@ ProfileLoad load_profile_file(const std::string& path);
 
 // The four seed devices, built into the binary.
 const std::vector<Profile>& bundled_profiles();
+// For tests: what is wrong with the bundled files (nothing, in a good build).
+std::vector<ProfileProblem> bundled_profile_problems();
+std::size_t bundled_profile_file_count();
 
 }  // namespace rtuscope

@@ -14,9 +14,10 @@ namespace rtuscope {
 
 namespace note_id {
 inline constexpr const char* value_out_of_range = "value.out_of_range";
-inline constexpr const char* value_partial = "value.partial";      // half of a 32-bit value
-inline constexpr const char* value_unlisted = "value.unlisted";    // not in the profile
-inline constexpr const char* value_read_only = "value.read_only";  // written but read-only
+inline constexpr const char* value_partial = "value.partial";        // half of a 32-bit value
+inline constexpr const char* value_unlisted = "value.unlisted";      // not in the profile
+inline constexpr const char* value_read_only = "value.read_only";    // written but read-only
+inline constexpr const char* value_write_only = "value.write_only";  // read but write-only
 }  // namespace note_id
 
 struct DecodedValue {
@@ -24,8 +25,8 @@ struct DecodedValue {
     std::string name;           // the register's name; empty when the profile has none
     std::string value;          // "220.5", "-5.0", an enum label, bit names, a string
     std::string unit;
-    std::string raw;            // the register word(s) in hex: "0x089D", "0x0000 0x3039"
-    Notes notes;                // value.* diagnostics for this value
+    std::string raw;  // the register word(s) in hex: "0x089D", "0x0000 0x3039"
+    Notes notes;      // value.* diagnostics for this value
 };
 
 // Every value the block carries, in address order. Registers the profile does not list

@@ -1,0 +1,392 @@
+// Register values in the device's own words: the raw words of a DataBlock explained with
+// a Profile (names, scales, units, enum labels, bit names, strings), with value.* notes
+// for what does not fit. Like the decoder, this never throws and never reads outside
+// the block, whatever the block or the profile holds: captures are full of surprises and
+// profiles are written by hand.
+#include "rtuscope/values.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <bit>
+#include <cmath>
+#include <cstddef>
+#include <span>
+
+namespace rtuscope {
+
+namespace {
+
+using Words = std::span<const std::uint16_t>;
+
+// Anything a profile could ask for beyond this is a typo, not a wish for 10^9 digits.
+constexpr int kMaxDecimals = 30;
+
+bool is_bit_table(const std::string& table) {
+    return table == "coil" || table == "discrete";
+}
+
+bool is_32bit(ValueType type) {
+    return type == ValueType::u32 || type == ValueType::i32 || type == ValueType::f32;
+}
+
+bool is_integer_type(ValueType type) {
+    return type == ValueType::u16 || type == ValueType::i16 || type == ValueType::u32 ||
+           type == ValueType::i32;
+}
+
+std::string hex_words(Words words) {
+    std::string out;
+    for (const std::uint16_t w : words) {
+        if (!out.empty()) out += ' ';
+        out += fmt::format("0x{:04X}", w);
+    }
+    return out;
+}
+
+const char* bit_text(std::uint16_t item) {
+    return item != 0 ? "1" : "0";
+}
+
+// fmt prints IEEE negative zero as "-0" / "-0.0", which reads like a sign error.
+std::string without_negative_zero(std::string text) {
+    if (text.size() > 1 && text[0] == '-' && text.find_first_not_of("0.", 1) == std::string::npos) {
+        text.erase(0, 1);
+    }
+    return text;
+}
+
+// The fewest decimals that show every multiple of `scale` exactly (0.1 -> 1, 0.5 -> 1,
+// 0.01 -> 2), so that 3 * 0.1 prints as "0.3" and not 0.30000000000000004. -1 when no
+// small number of decimals does (a scale of 1/3).
+int decimals_implied_by(double scale) {
+    double shifted = scale;
+    for (int d = 0; d <= 9; ++d, shifted *= 10) {
+        const double nearest = std::round(shifted);
+        if (nearest != 0 && std::abs(shifted - nearest) < 1e-9) return d;
+    }
+    return -1;
+}
+
+// How one register's numbers are printed. The range bounds of a note use the same style,
+// so that "400.0" is flagged as "outside 0.0..300.0".
+struct NumberStyle {
+    enum class Kind : std::uint8_t { fixed, integer, shortest_float, shortest_double };
+    Kind kind = Kind::shortest_double;
+    int decimals = 0;  // for fixed
+};
+
+NumberStyle style_for(const Register& reg, bool bit_table) {
+    if (reg.decimals >= 0) {
+        return {NumberStyle::Kind::fixed, std::min(reg.decimals, kMaxDecimals)};
+    }
+    const bool integer = bit_table || is_integer_type(reg.type);
+    if (integer && reg.scale == 1.0) return {NumberStyle::Kind::integer, 0};
+    // A float's own digits are its precision; rounding to the scale's decimals would hide
+    // digits the device sent.
+    if (!bit_table && reg.type == ValueType::f32) return {NumberStyle::Kind::shortest_float, 0};
+    const int implied = decimals_implied_by(reg.scale);
+    if (implied >= 0) return {NumberStyle::Kind::fixed, implied};
+    return {NumberStyle::Kind::shortest_double, 0};
+}
+
+std::string format_number(double value, const NumberStyle& style) {
+    std::string text;
+    switch (style.kind) {
+        case NumberStyle::Kind::fixed:
+            text = fmt::format("{:.{}f}", value, style.decimals);
+            break;
+        case NumberStyle::Kind::integer:
+            // Exact for register values; a fractional range bound keeps its fraction.
+            text = value == std::trunc(value) ? fmt::format("{:.0f}", value)
+                                              : fmt::format("{}", value);
+            break;
+        case NumberStyle::Kind::shortest_float:
+            text = fmt::format("{}", static_cast<float>(value));
+            break;
+        case NumberStyle::Kind::shortest_double:
+            text = fmt::format("{}", value);
+            break;
+    }
+    return without_negative_zero(std::move(text));
+}
+
+std::string with_unit(std::string text, const std::string& unit) {
+    if (!unit.empty()) text += " " + unit;
+    return text;
+}
+
+void check_range(const Register& reg, double value, const NumberStyle& style, DecodedValue& v) {
+    const bool below = reg.min && value < *reg.min;
+    const bool above = reg.max && value > *reg.max;
+    if (!below && !above) return;
+    std::string text;
+    if (reg.min && reg.max) {
+        text = fmt::format("outside {}..{}", format_number(*reg.min, style),
+                           format_number(*reg.max, style));
+    } else if (below) {
+        text = "below " + format_number(*reg.min, style);
+    } else {
+        text = "above " + format_number(*reg.max, style);
+    }
+    v.notes.push_back({note_id::value_out_of_range, with_unit(std::move(text), reg.unit)});
+}
+
+// A number read from the wire: integers exactly, floats as sent.
+struct RawNumber {
+    std::int64_t integer = 0;
+    float real = 0;
+    bool is_real = false;
+};
+
+void set_number(const Register& reg, RawNumber raw, bool bit_table, DecodedValue& v) {
+    const NumberStyle style = style_for(reg, bit_table);
+    const double value = raw.is_real ? static_cast<double>(raw.real) * reg.scale
+                                     : static_cast<double>(raw.integer) * reg.scale;
+    if (style.kind == NumberStyle::Kind::integer && !raw.is_real) {
+        v.value = fmt::format("{}", raw.integer);
+    } else {
+        v.value = format_number(value, style);
+    }
+    v.unit = reg.unit;
+    check_range(reg, value, style, v);
+}
+
+void set_enum(const Register& reg, std::uint32_t raw, DecodedValue& v) {
+    const auto label = reg.labels.find(raw);
+    if (label != reg.labels.end()) {
+        v.value = label->second;
+        return;
+    }
+    v.value = fmt::format("{}", raw);
+    v.notes.push_back({note_id::value_out_of_range, fmt::format("no label for {}", raw)});
+}
+
+std::string bit_names(const Register& reg, std::uint16_t word) {
+    std::string out;
+    for (std::uint32_t bit = 0; bit < 16; ++bit) {
+        if ((word & (1U << bit)) == 0) continue;
+        if (!out.empty()) out += ", ";
+        const auto name = reg.labels.find(bit);
+        out += name != reg.labels.end() ? name->second : fmt::format("bit {}", bit);
+    }
+    return out.empty() ? "none" : out;
+}
+
+std::string ascii_text(Words words) {
+    std::string out;
+    for (const std::uint16_t w : words) {
+        for (const unsigned byte : {unsigned{w} >> 8U, unsigned{w} & 0xFFU}) {
+            if (byte == 0) return out;
+            if (byte >= 0x20 && byte < 0x7F) {
+                out += static_cast<char>(byte);
+            } else {
+                out += fmt::format("\\x{:02X}", byte);
+            }
+        }
+    }
+    return out;
+}
+
+std::uint32_t combine(const Register& reg, Words words) {
+    const std::uint32_t first = words[0];
+    const std::uint32_t second = words[1];
+    return reg.word_order == WordOrder::high_first ? (first << 16U) | second
+                                                   : (second << 16U) | first;
+}
+
+// A write carries a command rather than a quantity when its raw value is listed in
+// `writes`; the meaning replaces the number then (and a range makes no sense for it).
+bool set_special_write(const Register& reg, std::uint32_t raw, DecodedValue& v) {
+    const auto meaning = reg.writes.find(raw);
+    if (meaning == reg.writes.end()) return false;
+    v.value = meaning->second;
+    v.unit.clear();
+    return true;
+}
+
+// Access the profile does not allow: a master writing a read-only register, or reading
+// (and a device answering for) one that the manual says can only be written.
+void note_access_mismatch(const Register& reg, bool write, DecodedValue& v) {
+    if (write && reg.access == Access::read) {
+        v.notes.push_back({note_id::value_read_only, "written, but the profile says read-only"});
+    }
+    if (!write && reg.access == Access::write) {
+        v.notes.push_back({note_id::value_write_only, "read, but the profile says write-only"});
+    }
+}
+
+DecodedValue unlisted(std::uint16_t address, std::uint16_t word, bool bit_table) {
+    DecodedValue v;
+    v.address = address;
+    v.value = bit_table ? bit_text(word) : fmt::format("{}", word);
+    v.raw = bit_table ? bit_text(word) : fmt::format("0x{:04X}", word);
+    v.notes.push_back({note_id::value_unlisted, "not in the profile"});
+    return v;
+}
+
+// One coil or discrete input: always a single item, whatever length the profile gives.
+DecodedValue decode_bit(const Register& reg, std::uint16_t address, std::uint16_t item,
+                        bool write) {
+    DecodedValue v;
+    v.address = address;
+    v.name = reg.name;
+    v.raw = bit_text(item);
+    note_access_mismatch(reg, write, v);
+    const std::uint32_t bit = item != 0 ? 1 : 0;
+    if (write && set_special_write(reg, bit, v)) return v;
+    if (reg.type == ValueType::enumeration) {
+        set_enum(reg, bit, v);
+        return v;
+    }
+    set_number(reg, {static_cast<std::int64_t>(bit), 0, false}, true, v);
+    return v;
+}
+
+// A register whose every word is in the block.
+DecodedValue decode_register(const Register& reg, std::uint16_t address, Words words, bool write) {
+    DecodedValue v;
+    v.address = address;
+    v.name = reg.name;
+    v.raw = hex_words(words);
+    note_access_mismatch(reg, write, v);
+    if (is_32bit(reg.type) && words.size() < 2) {
+        // Only a broken profile gets here (a 32-bit type of length 1); say so, do not guess.
+        v.notes.push_back(
+            {note_id::value_partial,
+             fmt::format("a 32-bit value needs 2 registers, the profile gives {}", words.size())});
+        return v;
+    }
+    const std::uint32_t raw = is_32bit(reg.type) ? combine(reg, words) : words[0];
+    if (write && set_special_write(reg, raw, v)) return v;
+    switch (reg.type) {
+        case ValueType::u16:
+        case ValueType::u32:
+            set_number(reg, {static_cast<std::int64_t>(raw), 0, false}, false, v);
+            break;
+        case ValueType::i16:
+            set_number(reg, {static_cast<std::int16_t>(raw), 0, false}, false, v);
+            break;
+        case ValueType::i32:
+            set_number(reg, {static_cast<std::int32_t>(raw), 0, false}, false, v);
+            break;
+        case ValueType::f32:
+            set_number(reg, {0, std::bit_cast<float>(raw), true}, false, v);
+            break;
+        case ValueType::enumeration:
+            set_enum(reg, raw, v);
+            break;
+        case ValueType::bits:
+            v.value = bit_names(reg, words[0]);
+            break;
+        case ValueType::string:
+            v.value = ascii_text(words);
+            break;
+    }
+    return v;
+}
+
+// The words of a register that the block cuts: it starts inside the register, or ends
+// before the register does. Its value cannot be known, so only the raw words are shown.
+DecodedValue partial(const Register& reg, std::uint16_t address, Words present) {
+    DecodedValue v;
+    v.address = address;
+    v.name = reg.name;
+    v.raw = hex_words(present);
+    const std::size_t offset = address - reg.address;
+    const std::size_t count = present.size();
+    const std::uint32_t last = std::uint32_t{reg.address} + reg.length - 1;
+    const std::string span = fmt::format("0x{:04X}-0x{:04X}", reg.address, last);
+    std::string text;
+    if (is_32bit(reg.type) && reg.length == 2 && count == 1) {
+        const bool high = (offset == 0) == (reg.word_order == WordOrder::high_first);
+        text = fmt::format("only the {} word of a 32-bit value ({})", high ? "high" : "low", span);
+    } else if (offset == 0) {
+        text = fmt::format("only the first {} of {} registers ({})", count, reg.length, span);
+    } else if (offset + count == reg.length) {
+        text = fmt::format("only the last {} of {} registers ({})", count, reg.length, span);
+    } else {
+        text = fmt::format("only registers {}-{} of {} ({})", offset + 1, offset + count,
+                           reg.length, span);
+    }
+    v.notes.push_back({note_id::value_partial, std::move(text)});
+    return v;
+}
+
+// Devices often take a command word written into one half of a 32-bit register (the
+// PDU clears its energy counter when 0xAABB is written to either half): that is the
+// command, not half a value.
+DecodedValue partial_or_command(const Register& reg, std::uint16_t address, Words present,
+                                bool write) {
+    DecodedValue v;
+    if (write && present.size() == 1) {
+        v.address = address;
+        v.name = reg.name;
+        v.raw = hex_words(present);
+        if (set_special_write(reg, present[0], v)) {
+            note_access_mismatch(reg, write, v);
+            return v;
+        }
+    }
+    return partial(reg, address, present);
+}
+
+}  // namespace
+
+const char* table_name(DataTable table) {
+    switch (table) {
+        case DataTable::coils:
+            return "coil";
+        case DataTable::discrete_inputs:
+            return "discrete";
+        case DataTable::holding_registers:
+            return "holding";
+        case DataTable::input_registers:
+            return "input";
+    }
+    return "";  // not a table any profile can name: everything comes out unlisted
+}
+
+std::vector<DecodedValue> decode_values(const Profile& profile, const DataBlock& block) {
+    const std::string table =
+        block.custom_table.empty() ? std::string(table_name(block.table)) : block.custom_table;
+    const bool bit_table = is_bit_table(table);
+    // Addresses do not wrap around: what a block carries past 0xFFFF is not decoded.
+    const std::size_t count =
+        std::min<std::size_t>(block.values.size(), std::size_t{0x10000} - block.start);
+    const Words words(block.values.data(), count);
+
+    std::vector<DecodedValue> out;
+    out.reserve(count);
+    for (std::size_t i = 0; i < count;) {
+        const auto address = static_cast<std::uint16_t>(block.start + i);
+        if (bit_table) {
+            const Register* reg = profile.register_at(table, address);
+            out.push_back(reg != nullptr ? decode_bit(*reg, address, words[i], block.write)
+                                         : unlisted(address, words[i], true));
+            ++i;
+            continue;
+        }
+        const Register* reg = profile.register_covering(table, address);
+        // The lookup trusts the profile's order; an unsorted profile must not lead us to a
+        // register that does not actually cover this address.
+        if (reg == nullptr || reg->address > address ||
+            std::size_t{address} - reg->address >= reg->length) {
+            out.push_back(unlisted(address, words[i], false));
+            ++i;
+            continue;
+        }
+        const std::size_t offset = address - reg->address;
+        const std::size_t present = std::min<std::size_t>(reg->length - offset, count - i);
+        const Words here = words.subspan(i, present);
+        if (offset == 0 && present == reg->length) {
+            out.push_back(decode_register(*reg, address, here, block.write));
+        } else {
+            out.push_back(partial_or_command(*reg, address, here, block.write));
+        }
+        i += present;
+    }
+    return out;
+}
+
+}  // namespace rtuscope

@@ -1,0 +1,308 @@
+// Profile files: what a correct file gives, every kind of mistake reported with its
+// position, address formulas, and the bundled profiles loading cleanly.
+#include <gtest/gtest.h>
+
+#include <string>
+
+#include "rtuscope/profile.hpp"
+#include "rtuscope/profile_formula.hpp"
+
+namespace rtuscope {
+namespace {
+
+ProfileLoad load(const std::string& text) {
+    return load_profile_text(text, "test.toml");
+}
+
+// All problems, one per line, as `profiles check` prints them.
+std::string problems(const ProfileLoad& l) {
+    std::string out;
+    for (const ProfileProblem& p : l.problems) out += p.to_string() + "\n";
+    return out;
+}
+
+const char* const kDevice = "[device]\nname = \"t\"\n";
+
+TEST(ProfileLoader, ReadsEveryField) {
+    const auto l = load(R"([device]
+name = "pdu-test"
+title = "A PDU"
+source = "manual 1.0"
+line = "19200 8E1"
+addresses = [1, 250]
+broadcast = 255
+exception_answers = false
+max_registers = 100
+
+[[function]]
+code = 0x04
+name = "Set coefficient"
+request_length = 8
+answer = "echo"
+layout = "address_value"
+table = "eeprom"
+
+[[register]]
+address = 0x0000
+name = "voltage"
+type = "u16"
+decimals = 1
+unit = "V"
+access = "R"
+range = [0.0, 300]
+description = "present voltage"
+
+[[register]]
+address = 4
+name = "energy"
+type = "u32"
+word_order = "low_first"
+scale = 0.01
+unit = "kWh"
+access = "RW"
+writes = { "0xAABB" = "clear" }
+
+[[register]]
+address = 6
+name = "baud"
+type = "enum"
+values = { "0" = "1200", "0x03" = "9600" }
+
+[[register]]
+address = 7
+name = "alarms"
+type = "bits"
+bits = { "0" = "over voltage", "15" = "fault" }
+
+[[register]]
+address = 8
+name = "model"
+type = "string"
+length = 4
+
+[[register]]
+table = "eeprom"
+address = 0x15
+name = "coefficient"
+decimals = 1
+access = "W"
+)");
+    ASSERT_TRUE(l.profile) << problems(l);
+    const Profile& p = *l.profile;
+    EXPECT_EQ(p.name, "pdu-test");
+    EXPECT_EQ(p.title, "A PDU");
+    ASSERT_TRUE(p.line);
+    EXPECT_EQ(p.line->baud, 19200U);
+    EXPECT_EQ(p.line->format(), "8E1");
+    EXPECT_EQ(p.first_address, 1);
+    EXPECT_EQ(p.last_address, 250);
+    EXPECT_EQ(p.broadcast, 255);
+    EXPECT_FALSE(p.exception_answers);
+    EXPECT_EQ(p.max_registers, 100);
+    ASSERT_NE(p.function(0x04), nullptr);
+    EXPECT_EQ(p.function(0x04)->answer, FunctionOverride::Answer::echo);
+    EXPECT_EQ(p.function(0x04)->request_length, 8U);
+    EXPECT_EQ(p.function(0x04)->table, "eeprom");
+    EXPECT_EQ(p.function(0x05), nullptr);
+
+    ASSERT_EQ(p.registers.size(), 6U);
+    const Register* voltage = p.register_at("holding", 0);
+    ASSERT_NE(voltage, nullptr);
+    EXPECT_DOUBLE_EQ(voltage->scale, 0.1);
+    EXPECT_EQ(voltage->decimals, 1);
+    EXPECT_EQ(voltage->unit, "V");
+    EXPECT_EQ(voltage->min, 0.0);
+    EXPECT_EQ(voltage->max, 300.0);
+    EXPECT_EQ(voltage->pos.line, 19);
+
+    const Register* energy = p.register_at("holding", 4);
+    ASSERT_NE(energy, nullptr);
+    EXPECT_EQ(energy->length, 2);
+    EXPECT_EQ(energy->word_order, WordOrder::low_first);
+    EXPECT_EQ(energy->access, Access::read_write);
+    EXPECT_EQ(energy->writes.at(0xAABB), "clear");
+    EXPECT_EQ(p.register_covering("holding", 5), energy);
+    EXPECT_EQ(p.register_at("holding", 5), nullptr);
+
+    EXPECT_EQ(p.register_at("holding", 6)->labels.at(3), "9600");
+    EXPECT_EQ(p.register_at("holding", 7)->labels.at(15), "fault");
+    EXPECT_EQ(p.register_at("holding", 8)->length, 4);
+    EXPECT_EQ(p.register_covering("holding", 11)->name, "model");
+    EXPECT_EQ(p.register_covering("holding", 12), nullptr);
+    EXPECT_EQ(p.register_at("eeprom", 0x15)->access, Access::write);
+    EXPECT_EQ(p.register_at("input", 0), nullptr);
+}
+
+TEST(ProfileLoader, FormulaMakesOneRegisterPerCombination) {
+    const auto l = load(std::string(kDevice) + R"(
+[[register]]
+formula = "(channel-1)*100 + (sensor-1)*2"
+channel = [1, 18]
+sensor = [1, 50]
+name = "ch{channel}.s{sensor}"
+type = "i16"
+)");
+    ASSERT_TRUE(l.profile) << problems(l);
+    const Profile& p = *l.profile;
+    EXPECT_EQ(p.registers.size(), 18U * 50U);
+    EXPECT_EQ(p.register_at("holding", 0)->name, "ch1.s1");
+    EXPECT_EQ(p.register_at("holding", 2)->name, "ch1.s2");
+    EXPECT_EQ(p.register_at("holding", 102)->name, "ch2.s2");
+    EXPECT_EQ(p.register_at("holding", 1798)->name, "ch18.s50");
+    EXPECT_EQ(p.register_at("holding", 1), nullptr);  // the formula skips odd addresses
+    EXPECT_EQ(p.register_at("holding", 1798)->type, ValueType::i16);
+}
+
+struct BadCase {
+    const char* what;
+    std::string text;
+    std::string expected;  // the whole `profiles check` output
+};
+
+void PrintTo(const BadCase& c, std::ostream* os) {
+    *os << c.what;
+}
+
+class ProfileMistakes : public ::testing::TestWithParam<BadCase> {};
+
+TEST_P(ProfileMistakes, AreReportedWithTheirPosition) {
+    const auto l = load(GetParam().text);
+    EXPECT_FALSE(l.profile);
+    EXPECT_EQ(problems(l), GetParam().expected);
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    , ProfileMistakes,
+    ::testing::Values(
+        BadCase{
+            "toml_syntax", "[device]\nname = \"t\nx = 1\n",
+            "test.toml:2:10: Error while parsing string: unescaped control characters other than "
+            "TAB (U+0009) are explicitly prohibited\n"},
+        BadCase{"unknown_type",
+                std::string(kDevice) + "[[register]]\naddress = 1\nname = \"a\"\n"
+                                       "type = \"u24\"\n",
+                "test.toml:6:8: unknown type \"u24\" (u16, i16, u32, i32, f32, bits, enum, "
+                "string)\n"},
+        BadCase{"overlap",
+                std::string(kDevice) +
+                    "[[register]]\naddress = 4\nname = \"energy\"\ntype = \"u32\"\n\n"
+                    "[[register]]\naddress = 5\nname = \"low\"\n",
+                "test.toml:8:1: register \"low\" (0x0005) overlaps \"energy\" (0x0004, 2 "
+                "registers, line 3) in table holding\n"},
+        BadCase{"duplicate_name",
+                std::string(kDevice) + "[[register]]\naddress = 1\nname = \"a\"\n\n"
+                                       "[[register]]\naddress = 2\nname = \"a\"\n",
+                "test.toml:7:1: duplicate register name \"a\" (also at line 3)\n"},
+        BadCase{"address_out_of_range",
+                std::string(kDevice) + "[[register]]\naddress = 70000\nname = \"a\"\n",
+                "test.toml:4:11: address must be an integer from 0 to 65535\n"},
+        BadCase{"runs_past_the_end",
+                std::string(kDevice) + "[[register]]\naddress = 0xFFFF\nname = \"a\"\n"
+                                       "type = \"f32\"\n",
+                "test.toml:3:1: register \"a\" at 0xFFFF takes 2 registers and runs past "
+                "address 0xFFFF\n"},
+        BadCase{"bad_formula",
+                std::string(kDevice) + "[[register]]\nformula = \"(channel-1*100\"\n"
+                                       "channel = [1, 2]\nname = \"c{channel}\"\n",
+                "test.toml:4:11: bad formula: expected ')' at character 15\n"},
+        BadCase{"formula_without_range",
+                std::string(kDevice) + "[[register]]\nformula = \"(ch-1)*10 + s\"\n"
+                                       "ch = [1, 2]\nname = \"c{ch}.{s}\"\n",
+                "test.toml:4:11: formula variable \"s\" needs a range: s = [first, last]\n"},
+        BadCase{"formula_out_of_range",
+                std::string(kDevice) + "[[register]]\nformula = \"ch*1000\"\n"
+                                       "ch = [1, 100]\nname = \"c{ch}\"\n",
+                "test.toml:4:11: formula gives address 66000 for c66, outside 0-65535\n"},
+        BadCase{"formula_name_without_variable",
+                std::string(kDevice) + "[[register]]\nformula = \"ch*2\"\n"
+                                       "ch = [1, 3]\nname = \"channel\"\n",
+                "test.toml:6:8: name \"channel\" must contain {ch}: each register of a formula "
+                "needs its own name\n"},
+        BadCase{"unknown_keys_everywhere",
+                "[device]\nname = \"t\"\nbaud = 9600\n\n[[register]]\naddress = 1\nname = "
+                "\"a\"\nunits = \"V\"\n\n[extra]\n",
+                "test.toml:3:1: unknown key \"baud\" in [device] (known: name, title, source, "
+                "line, addresses, broadcast, exception_answers, max_registers)\n"
+                "test.toml:8:1: unknown key \"units\" in [[register]]\n"
+                "test.toml:10:2: unknown key \"extra\" at the top level (known: device, "
+                "function, register)\n"},
+        BadCase{"several_mistakes_in_one_register",
+                std::string(kDevice) + "[[register]]\naddress = 1\nname = \"a b\"\n"
+                                       "access = \"RO\"\nscale = 0.1\ndecimals = 1\n",
+                "test.toml:6:10: access \"RO\" must be \"R\", \"W\" or \"RW\"\n"
+                "test.toml:8:12: give scale or decimals, not both\n"},
+        BadCase{"bad_name_and_line", "[device]\nname = \"My PDU\"\nline = \"9600 9X1\"\n",
+                "test.toml:2:8: name \"My PDU\" must be lower case letters, digits and -\n"
+                "test.toml:3:8: bad line format \"9X1\" (expected data bits 5-8, parity N/E/O, "
+                "stop bits 1-2, e.g. 8N1 or 8E1)\n"},
+        BadCase{"missing_device", "[[register]]\naddress = 1\nname = \"a\"\n",
+                "test.toml:1:1: missing [device] table\n"},
+        BadCase{"unknown_table",
+                std::string(kDevice) + "[[register]]\ntable = \"eeprom\"\naddress = 1\n"
+                                       "name = \"a\"\n",
+                "test.toml:4:9: unknown table \"eeprom\" (holding, input, coil, discrete, or "
+                "the table of a [[function]] defined above)\n"},
+        BadCase{"enum_without_values",
+                std::string(kDevice) + "[[register]]\naddress = 1\nname = \"a\"\n"
+                                       "type = \"enum\"\n",
+                "test.toml:3:1: enum register \"a\" needs values\n"},
+        BadCase{"bad_enum_key",
+                std::string(kDevice) + "[[register]]\naddress = 1\nname = \"a\"\n"
+                                       "type = \"enum\"\nvalues = { \"one\" = \"1\" }\n",
+                "test.toml:7:12: values key \"one\" must be a number from 0 to 65535\n"},
+        BadCase{"duplicate_function",
+                std::string(kDevice) + "[[function]]\ncode = 4\n\n[[function]]\ncode = 0x04\n",
+                "test.toml:7:8: function 0x04 is defined twice\n"}),
+    [](const ::testing::TestParamInfo<BadCase>& param) { return std::string(param.param.what); });
+
+TEST(ProfileLoader, MissingAndDirectoryFilesAreOneLine) {
+    const auto missing = load_profile_file("no/such/profile.toml");
+    EXPECT_FALSE(missing.profile);
+    EXPECT_EQ(problems(missing), "no/such/profile.toml: cannot open: No such file or directory\n");
+    const auto dir = load_profile_file(RTUSCOPE_SOURCE_DIR);
+    EXPECT_FALSE(dir.profile);
+    EXPECT_EQ(problems(dir), std::string(RTUSCOPE_SOURCE_DIR) + ": is a directory\n");
+}
+
+TEST(ProfileLoader, HugeFormulaRangeIsRefused) {
+    const auto l = load(std::string(kDevice) +
+                        "[[register]]\nformula = \"a+b\"\n"
+                        "a = [0, 100000]\nb = [0, 100000]\n"
+                        "name = \"r{a}.{b}\"\n");
+    EXPECT_FALSE(l.profile);
+    EXPECT_EQ(problems(l),
+              "test.toml:4:11: the formula's ranges give more than 65536 "
+              "registers\n");
+}
+
+TEST(ProfileFormula, EvaluatesWithPrecedenceAndParentheses) {
+    auto f = parse_formula("(channel-1)*100 + (sensor-1)*2");
+    ASSERT_TRUE(f) << f.error().message;
+    EXPECT_EQ(f->variables(), (std::vector<std::string>{"channel", "sensor"}));
+    EXPECT_EQ(*f->evaluate({{"channel", 18}, {"sensor", 50}}), 1798);
+    EXPECT_EQ(*parse_formula("2+3*4")->evaluate({}), 14);
+    EXPECT_EQ(*parse_formula("-(7/2)")->evaluate({}), -3);
+    EXPECT_FALSE(parse_formula("1/0")->evaluate({}));
+    EXPECT_FALSE(parse_formula("x+1")->evaluate({}));
+}
+
+TEST(ProfileFormula, SyntaxErrorsNameTheCharacter) {
+    EXPECT_EQ(parse_formula("1 + * 2").error().message, "unexpected '*' at character 5");
+    EXPECT_EQ(parse_formula("1 +").error().message, "the formula ends too early");
+    EXPECT_EQ(parse_formula("(1").error().message, "expected ')' at character 3");
+    EXPECT_EQ(parse_formula("2 x").error().message, "unexpected 'x' at character 3");
+    EXPECT_EQ(parse_formula("99999999999").error().message, "number at character 1 is too large");
+    EXPECT_EQ(parse_formula(std::string(500, '(') + "1" + std::string(500, ')')).error().message,
+              "the formula nests too deeply");
+}
+
+TEST(BundledProfiles, AllLoadWithoutProblems) {
+    std::string all;
+    for (const ProfileProblem& p : bundled_profile_problems()) all += p.to_string() + "\n";
+    EXPECT_EQ(all, "");
+    EXPECT_EQ(bundled_profile_file_count(), 4U);
+    EXPECT_EQ(bundled_profiles().size(), 4U);
+}
+
+}  // namespace
+}  // namespace rtuscope
