@@ -6,19 +6,6 @@
 namespace rtuscope {
 namespace {
 
-void put_field(std::string& line, std::string_view field) {
-    if (field.find_first_of(",\"\r\n") == std::string_view::npos) {
-        line += field;
-        return;
-    }
-    line += '"';
-    for (char c : field) {
-        if (c == '"') line += '"';
-        line += c;
-    }
-    line += '"';
-}
-
 class CsvSink final : public RecordSink {
   public:
     explicit CsvSink(std::FILE* out) : out_(out) {}
@@ -49,13 +36,13 @@ class CsvSink final : public RecordSink {
         if (has_time(r.latency))
             line += fmt::format("{:.3f}", static_cast<double>(r.latency) / 1e6);
         line += ',';
-        put_field(line, record_summary(r));
+        line += csv_field(record_summary(r));
         line += ',';
         line += hex_bytes(r.frame.bytes, false);
         line += ',';
-        put_field(line, ids);
+        line += csv_field(ids);
         line += ',';
-        put_field(line, texts);
+        line += csv_field(texts);
         line += '\n';
         std::fwrite(line.data(), 1, line.size(), out_);
     }

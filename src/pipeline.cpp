@@ -1,9 +1,12 @@
 #include "rtuscope/pipeline.hpp"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 
 #include "rtuscope/decoder.hpp"
 #include "rtuscope/framer.hpp"
+#include "rtuscope/sinks.hpp"
 
 namespace rtuscope {
 namespace {
@@ -48,16 +51,68 @@ void count(Totals& totals, const Record& record) {
 
 }  // namespace
 
-void decode_record(Record& record) {
+namespace {
+
+// A function code the device defines for itself: its name, and its data explained as
+// the profile's layout says.
+DecodedPdu decode_own_function(const FunctionOverride& f, std::span<const std::uint8_t> pdu) {
+    DecodedPdu d;
+    d.function_name = f.name;
+    const auto data = pdu.subspan(1);
+    if (f.layout == "address_value" && data.size() >= 4) {
+        DataBlock block;
+        block.custom_table = f.table;
+        block.start = static_cast<std::uint16_t>((data[0] << 8) | data[1]);
+        block.values.push_back(static_cast<std::uint16_t>((data[2] << 8) | data[3]));
+        block.write = true;
+        d.summary = fmt::format("0x{:04X} = 0x{:04X}", block.start, block.values[0]);
+        if (data.size() != 4) {
+            d.notes.push_back({note_id::malformed,
+                               fmt::format("{} data bytes, the profile says 4", data.size())});
+        }
+        d.blocks.push_back(std::move(block));
+    } else {
+        d.summary = hex_bytes(data, true);
+        if (f.layout == "address_value") {
+            d.notes.push_back({note_id::malformed,
+                               fmt::format("{} data bytes, the profile says 4", data.size())});
+        }
+    }
+    return d;
+}
+
+// Many devices take fewer registers per request than the standard's 125 (the PDU485:
+// 100); a master asking for more gets an exception or silence, and this says why.
+void note_over_device_limit(Record& record, const Profile& profile) {
+    const auto& b = record.frame.bytes;
+    if (b.size() < 8) return;
+    const std::uint8_t function = b[1];
+    if (function != 0x03 && function != 0x04 && function != 0x10 && function != 0x17) return;
+    const auto quantity = static_cast<unsigned>((b[4] << 8) | b[5]);
+    if (quantity > profile.max_registers) {
+        record.notes.push_back({note_id::over_device_limit,
+                                fmt::format("{} registers asked, {} allows at most {}", quantity,
+                                            profile.name, profile.max_registers)});
+    }
+}
+
+}  // namespace
+
+void decode_record(Record& record, const Bus* bus) {
     const Frame& frame = record.frame;
+    record.profile = bus != nullptr && !frame.bytes.empty() ? bus->owner(frame.slave()) : nullptr;
     if (frame.cls == RecordClass::noise || frame.bytes.size() < 2) return;
     const bool cut_short = frame.bytes.size() < kMinAdu ||
                            std::any_of(record.notes.begin(), record.notes.end(), [](const Note& n) {
                                return std::string_view(n.id) == note_id::truncated;
                            });
+    const FunctionOverride* own =
+        record.profile != nullptr
+            ? record.profile->function(static_cast<std::uint8_t>(frame.function() & 0x7FU))
+            : nullptr;
     if (cut_short) {
         // No CRC at the end to strip: name the function, decode nothing.
-        record.decoded.function_name = function_name(frame.function());
+        record.decoded.function_name = own != nullptr ? own->name : function_name(frame.function());
         return;
     }
     const Role role = (record.kind == Kind::response || record.kind == Kind::exception ||
@@ -68,32 +123,54 @@ void decode_record(Record& record) {
     if (record.request.size() >= kMinAdu) {
         request_pdu = std::span(record.request).subspan(1, record.request.size() - 3);
     }
-    record.decoded = decode_pdu(frame.pdu(), role, request_pdu);
+    if (own != nullptr && !(frame.function() & 0x80U)) {
+        record.decoded = decode_own_function(*own, frame.pdu());
+    } else {
+        record.decoded = decode_pdu(frame.pdu(), role, request_pdu);
+        if (own != nullptr) record.decoded.function_name = own->name;
+    }
     for (const Note& note : record.decoded.notes) record.notes.push_back(note);
+    if (record.profile != nullptr && own == nullptr && role == Role::request) {
+        note_over_device_limit(record, *record.profile);
+    }
+    if (record.profile != nullptr) {
+        for (const DataBlock& block : record.decoded.blocks) {
+            std::vector<DecodedValue> values = decode_values(*record.profile, block);
+            record.values.insert(record.values.end(), std::make_move_iterator(values.begin()),
+                                 std::make_move_iterator(values.end()));
+        }
+    }
 }
 
 Status run_pipeline(ChunkSource& source, const PipelineOptions& options, RecordSink& sink) {
     SessionInfo session;
     session.source = source.info();
-    session.line = source.info().line.value_or(LineSettings{});
+    // The capture header, else the bus file or the devices' profiles, else 9600 8N1.
+    std::optional<LineSettings> bus_line;
+    if (options.bus != nullptr) bus_line = options.bus->line();
+    session.line = source.info().line.value_or(bus_line.value_or(LineSettings{}));
     if (options.format) {
         const std::uint32_t baud = session.line.baud;
         session.line = *options.format;
         session.line.baud = baud;
     }
     if (options.baud) session.line.baud = *options.baud;
+    if (options.bus != nullptr) session.devices = options.bus->map_text();
     sink.begin(session);
 
     Totals totals;
-    Transactions transactions({options.timeout, options.rules}, [&](Record&& record) {
-        decode_record(record);
+    std::optional<BusRules> bus_rules;
+    if (options.bus != nullptr) bus_rules.emplace(*options.bus);
+    const ProtocolRules* rules = bus_rules ? &*bus_rules : &standard_rules();
+    Transactions transactions({options.timeout, rules}, [&](Record&& record) {
+        decode_record(record, options.bus);
         count(totals, record);
         sink.record(record);
     });
     FramerOptions framer_options;
     framer_options.line = session.line;
     framer_options.chunk_is_frame = session.source.chunk_is_frame;
-    framer_options.rules = options.rules;
+    framer_options.rules = rules;
     framer_options.expectation = &transactions;
     Framer framer(framer_options, [&](Frame&& frame) { transactions.push(std::move(frame)); });
 

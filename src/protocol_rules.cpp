@@ -135,6 +135,14 @@ bool ProtocolRules::is_broadcast(std::uint8_t slave) const {
     return slave == 0;
 }
 
+bool ProtocolRules::expects_answer(std::uint8_t /*slave*/, std::uint8_t /*function*/) const {
+    return true;
+}
+
+bool ProtocolRules::answers_errors(std::uint8_t /*slave*/) const {
+    return true;
+}
+
 const ProtocolRules& standard_rules() {
     static const ProtocolRules rules;
     return rules;

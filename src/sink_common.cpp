@@ -25,6 +25,17 @@ std::string seconds_text(Nanos time) {
     return fmt::format("{}{}.{:06}", negative ? "-" : "", micros / 1'000'000, micros % 1'000'000);
 }
 
+std::string csv_field(std::string_view text) {
+    if (text.find_first_of(",\"\r\n") == std::string_view::npos) return std::string(text);
+    std::string field = "\"";
+    for (char c : text) {
+        if (c == '"') field += '"';
+        field += c;
+    }
+    field += '"';
+    return field;
+}
+
 std::string record_summary(const Record& record) {
     if (record.kind == Kind::noise) {
         return fmt::format("noise, {} byte{}", record.frame.bytes.size(),

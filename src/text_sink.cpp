@@ -48,6 +48,7 @@ class TextSink final : public RecordSink {
         fmt::print(out_, "{}: {} input, {} {} (t1.5 {:.2f} ms, t3.5 {:.2f} ms){}\n", s.source.name,
                    s.source.format, line.baud, line.format(), static_cast<double>(line.t15()) / 1e6,
                    static_cast<double>(line.t35()) / 1e6, s.source.timed ? "" : ", no timing");
+        if (!s.devices.empty()) fmt::print(out_, "devices: {}\n", s.devices);
     }
 
     void record(const Record& r) override {
@@ -93,6 +94,7 @@ class TextSink final : public RecordSink {
         if (options_.hex && framed) {
             line += fmt::format("{:>28}{}\n", "", hex_bytes(r.frame.bytes, true));
         }
+        append_values(line, r.values);
         std::fwrite(line.data(), 1, line.size(), out_);
         if (has_time(r.frame.start)) previous_ = r.frame.start;
     }
@@ -112,6 +114,46 @@ class TextSink final : public RecordSink {
     }
 
   private:
+    // One line per value under its frame; registers the profile does not list are
+    // gathered into runs, as devices often fill unused ranges with zeros.
+    void append_values(std::string& out, const std::vector<DecodedValue>& values) const {
+        constexpr const char* kIndent = "                            ";
+        for (std::size_t i = 0; i < values.size();) {
+            const DecodedValue& v = values[i];
+            if (v.name.empty()) {
+                std::size_t end = i;
+                bool all_zero = true;
+                std::string raws;
+                while (end < values.size() && values[end].name.empty()) {
+                    all_zero = all_zero && values[end].value == "0";
+                    raws += (raws.empty() ? "" : " ") + values[end].raw;
+                    ++end;
+                }
+                const std::size_t n = end - i;
+                std::string where = fmt::format("0x{:04X}", v.address);
+                if (n > 1) where += fmt::format("..0x{:04X}", values[end - 1].address);
+                out +=
+                    fmt::format("{}{} not in the profile: {}\n", kIndent, where,
+                                all_zero && n > 1 ? fmt::format("{} registers, all 0", n) : raws);
+                i = end;
+                continue;
+            }
+            std::string text =
+                fmt::format("{}{:<16} = {}", kIndent, v.name, v.value.empty() ? "?" : v.value);
+            if (!v.unit.empty() && !v.value.empty()) text += " " + v.unit;
+            text += fmt::format(" (raw {})", v.raw);
+            if (!v.notes.empty()) {
+                std::string notes = "! ";
+                for (std::size_t k = 0; k < v.notes.size(); ++k) {
+                    notes += (k > 0 ? "; " : "") + v.notes[k].text;
+                }
+                text += "  " + paint(notes, fmt::terminal_color::yellow);
+            }
+            out += text + '\n';
+            ++i;
+        }
+    }
+
     std::string time_column(Nanos time) {
         if (!has_time(time)) return "-";
         if (!has_time(first_)) first_ = time;

@@ -38,6 +38,9 @@ const AwaitedAnswer* Transactions::awaited(Nanos at) const {
 void Transactions::give_up_on_request(std::string why) {
     if (!awaiting_) return;
     Record& request = held_[*awaiting_];
+    if (!options_.rules->answers_errors(request.frame.slave())) {
+        why += " (this device answers errors with silence)";
+    }
     request.notes.push_back({note_id::no_answer, std::move(why)});
     awaiting_.reset();
     release();
@@ -117,8 +120,14 @@ void Transactions::push(Frame&& frame) {
         give_up_on_request("no answer before the next request");
     }
 
-    const bool awaits = record.kind == Kind::request ||
-                        (invalid && is_request && !options_.rules->is_broadcast(f.slave()));
+    if (record.kind == Kind::exception && !options_.rules->answers_errors(f.slave())) {
+        record.notes.push_back(
+            {note_id::unexpected_exception,
+             "this device is said to answer errors with silence, not exceptions"});
+    }
+    const bool awaits = (record.kind == Kind::request ||
+                         (invalid && is_request && !options_.rules->is_broadcast(f.slave()))) &&
+                        options_.rules->expects_answer(f.slave(), f.function());
     held_.push_back(std::move(record));
     if (awaits) {
         awaiting_ = held_.size() - 1;

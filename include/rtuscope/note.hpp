@@ -28,6 +28,7 @@ inline constexpr const char* noise = "frame.noise";
 // transactions
 inline constexpr const char* no_answer = "txn.no_answer";
 inline constexpr const char* unsolicited = "txn.unsolicited";  // answer with no request
+inline constexpr const char* unexpected_exception = "txn.unexpected_exception";
 // PDU decoding
 inline constexpr const char* byte_count_mismatch = "pdu.byte_count_mismatch";
 inline constexpr const char* malformed = "pdu.malformed";
@@ -35,6 +36,9 @@ inline constexpr const char* request_mismatch =
     "pdu.request_mismatch";  // answer disagrees with request
 inline constexpr const char* illegal_value = "pdu.illegal_value";
 inline constexpr const char* unknown_function = "pdu.unknown_function";
+// profiles
+inline constexpr const char* over_device_limit =
+    "profile.over_device_limit";  // more registers asked than the device allows
 }  // namespace note_id
 
 }  // namespace rtuscope

@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "rtuscope/bus.hpp"
 #include "rtuscope/chunk.hpp"
 #include "rtuscope/line_settings.hpp"
 #include "rtuscope/protocol_rules.hpp"
@@ -19,13 +20,14 @@ struct PipelineOptions {
     std::optional<std::uint32_t> baud;   // overrides the capture header
     std::optional<LineSettings> format;  // data/parity/stop bits; overrides the header
     Nanos timeout = kNanosPerSecond;
-    const ProtocolRules* rules = &standard_rules();
+    const Bus* bus = nullptr;  // which slave is which device; none: standard decoding only
 };
 
 // What a sink is told before the first record.
 struct SessionInfo {
     SourceInfo source;
-    LineSettings line;  // in effect after header and options
+    LineSettings line;    // in effect after header and options
+    std::string devices;  // the bus map, "zb-uvi485 on 1, 2; pdu485 on 3"; empty without
 };
 
 // Counts for the closing summary.
@@ -59,7 +61,8 @@ class RecordSink {
 // read before it is still decoded and delivered, then the error is returned.
 Status run_pipeline(ChunkSource& source, const PipelineOptions& options, RecordSink& sink);
 
-// The decoder stage for one record (exposed for tests).
-void decode_record(Record& record);
+// The decoder stage for one record: the standard PDU, or the device's own function code,
+// and the register values in the device's words when the bus map has its profile.
+void decode_record(Record& record, const Bus* bus);
 
 }  // namespace rtuscope

@@ -44,6 +44,10 @@ class ProtocolRules {
     [[nodiscard]] virtual bool answer_is_echo(std::uint8_t slave, std::uint8_t function) const;
     // Whether a request to this address expects no answer (standard: address 0).
     [[nodiscard]] virtual bool is_broadcast(std::uint8_t slave) const;
+    // Whether this function code is ever answered (a device may define one that is not).
+    [[nodiscard]] virtual bool expects_answer(std::uint8_t slave, std::uint8_t function) const;
+    // Whether the device answers errors with exception frames (some stay silent).
+    [[nodiscard]] virtual bool answers_errors(std::uint8_t slave) const;
 };
 
 // The standard rules, for users that have no profile.

@@ -15,6 +15,7 @@
 #include "rtuscope/expectation.hpp"
 #include "rtuscope/frame.hpp"
 #include "rtuscope/protocol_rules.hpp"
+#include "rtuscope/values.hpp"
 
 namespace rtuscope {
 
@@ -39,6 +40,8 @@ struct Record {
     std::vector<std::uint8_t> request;  // answers: the request frame, for decoding
     Notes notes;                        // everything noticed, frame notes first
     DecodedPdu decoded;                 // filled by the decoder stage
+    const Profile* profile = nullptr;   // the device's profile, when the bus map has one
+    std::vector<DecodedValue> values;   // its register values in the device's words
 };
 
 struct TransactionOptions {

@@ -8,6 +8,8 @@
 #include <memory>
 #include <string>
 
+#include "bus_options.hpp"
+#include "errors.hpp"
 #include "rtuscope/pipeline.hpp"
 #include "rtuscope/sinks.hpp"
 #include "rtuscope/sources.hpp"
@@ -25,11 +27,9 @@ struct DecodeArgs {
     std::string time_format = "a";
     bool hex = false;
     bool no_color = false;
+    bool values_csv = false;
+    BusArgs bus;
 };
-
-void print_error(const Error& error) {
-    fmt::print(stderr, "rtuscope: error: {}\n", error.to_string());
-}
 
 int run_decode(const DecodeArgs& args) {
     PipelineOptions options;
@@ -49,6 +49,16 @@ int run_decode(const DecodeArgs& args) {
     }
     options.timeout = static_cast<Nanos>(std::llround(args.timeout_s * 1e9));
 
+    auto bus = build_bus(args.bus);
+    if (!bus) return print_error(bus.error()), 1;
+    if (!(*bus)->empty()) options.bus = bus->get();
+    if (args.values_csv && options.bus == nullptr) {
+        print_error(
+            Error{"--values-csv needs to know the devices: --device ADDR=PROFILE or "
+                  "--bus FILE"});
+        return 2;
+    }
+
     InputFormat input_format = InputFormat::automatic;
     if (args.input_format != "auto") {
         auto parsed = parse_input_format(args.input_format);
@@ -61,6 +71,8 @@ int run_decode(const DecodeArgs& args) {
     std::unique_ptr<RecordSink> sink;
     if (args.csv) {
         sink = make_csv_sink(stdout);
+    } else if (args.values_csv) {
+        sink = make_values_csv_sink(stdout);
     } else {
         TextOptions text;
         text.hex = args.hex;
@@ -71,7 +83,7 @@ int run_decode(const DecodeArgs& args) {
         sink = make_text_sink(stdout, text);
     }
     const Status status = run_pipeline(**source, options, *sink);
-    if (args.csv) {
+    if (args.csv || args.values_csv) {
         for (const std::string& remark : (*source)->remarks()) {
             fmt::print(stderr, "rtuscope: note: {}: {}\n", args.file, remark);
         }
@@ -87,7 +99,11 @@ void add_decode_command(CLI::App& app, int& exit_code) {
     CLI::App* cmd = app.add_subcommand(
         "decode", "Decode a saved capture, raw dump or hex log into annotated text or CSV");
     cmd->add_option("FILE", args->file, "Input file ('-' for standard input)")->required();
-    cmd->add_flag("--csv", args->csv, "Print the per-frame CSV instead of text");
+    auto* csv = cmd->add_flag("--csv", args->csv, "Print the per-frame CSV instead of text");
+    cmd->add_flag("--values-csv", args->values_csv,
+                  "Print one CSV row per register value (needs --device or --bus) instead of "
+                  "text")
+        ->excludes(csv);
     cmd->add_option("--baud", args->baud,
                     "Line speed; overrides the capture header (default 9600)");
     cmd->add_option("--format", args->format,
@@ -106,6 +122,7 @@ void add_decode_command(CLI::App& app, int& exit_code) {
     cmd->add_flag("--hex", args->hex, "Show the raw bytes of every frame (text output)");
     cmd->add_flag("--no-color", args->no_color,
                   "No colour (also off when NO_COLOR is set or stdout is not a terminal)");
+    add_bus_options(*cmd, args->bus);
     cmd->callback([args, &exit_code] { exit_code = run_decode(*args); });
 }
 

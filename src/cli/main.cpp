@@ -6,6 +6,7 @@
 #include <exception>
 
 #include "decode_command.hpp"
+#include "profiles_command.hpp"
 
 int main(int argc, char** argv) {
     CLI::App app{
@@ -15,6 +16,7 @@ int main(int argc, char** argv) {
     app.require_subcommand(1);
     int exit_code = 0;
     rtuscope::cli::add_decode_command(app, exit_code);
+    rtuscope::cli::add_profiles_command(app, exit_code);
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {

@@ -1,11 +1,18 @@
-# Runs one golden test: rtuscope decode INPUT [OPTIONS] as text and as CSV, each compared
-# byte for byte with the expectation. On a difference the actual output is kept in
-# OUT_DIR and a unified diff is printed.
+# Runs one golden test: rtuscope decode INPUT [OPTIONS] as text and as CSV (and, when the
+# options map devices to profiles, as --values-csv), each compared byte for byte with the
+# expectation. On a difference the actual output is kept in OUT_DIR and a unified diff is
+# printed.
 set(failed FALSE)
-foreach(mode txt csv)
+set(modes txt csv)
+if(OPTIONS MATCHES "--device|--bus")
+  list(APPEND modes values.csv)
+endif()
+foreach(mode IN LISTS modes)
   set(args decode ${INPUT} --no-color ${OPTIONS})
   if(mode STREQUAL "csv")
     list(APPEND args --csv)
+  elseif(mode STREQUAL "values.csv")
+    list(APPEND args --values-csv)
   endif()
   execute_process(COMMAND ${RTUSCOPE} ${args}
     OUTPUT_VARIABLE actual ERROR_VARIABLE errors RESULT_VARIABLE rc)

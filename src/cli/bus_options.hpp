@@ -1,0 +1,29 @@
+// The options that say which slave is which device, shared by the commands that decode.
+#pragma once
+
+#include <CLI/CLI.hpp>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "rtuscope/bus.hpp"
+
+namespace rtuscope::cli {
+
+struct BusArgs {
+    std::vector<std::string> profile_files;
+    std::string profile_dir;
+    std::vector<std::string> devices;
+    std::string bus_file;
+};
+
+void add_bus_options(CLI::App& cmd, BusArgs& args);
+
+// The bundled profiles, the user's, and the bus map. Problems in profile files are all
+// printed, one per line (FILE:LINE:COL: message); the result is then an error.
+Result<std::unique_ptr<Bus>> build_bus(const BusArgs& args);
+
+// Prints every problem in a profile file, one per line, on stderr.
+void print_problems(const std::vector<ProfileProblem>& problems);
+
+}  // namespace rtuscope::cli

@@ -1,0 +1,169 @@
+#include "profiles_command.hpp"
+
+#include <fmt/format.h>
+
+#include <memory>
+
+#include "bus_options.hpp"
+#include "errors.hpp"
+
+namespace rtuscope::cli {
+namespace {
+
+const char* type_text(ValueType type) {
+    switch (type) {
+        case ValueType::u16:
+            return "u16";
+        case ValueType::i16:
+            return "i16";
+        case ValueType::u32:
+            return "u32";
+        case ValueType::i32:
+            return "i32";
+        case ValueType::f32:
+            return "f32";
+        case ValueType::bits:
+            return "bits";
+        case ValueType::enumeration:
+            return "enum";
+        case ValueType::string:
+            return "string";
+    }
+    return "";
+}
+
+const char* access_text(Access access) {
+    switch (access) {
+        case Access::read:
+            return "R";
+        case Access::write:
+            return "W";
+        case Access::read_write:
+            return "RW";
+    }
+    return "";
+}
+
+std::string number_text(double value) {
+    return fmt::format("{}", value);
+}
+
+std::string scale_text(const Register& r) {
+    if (r.decimals >= 0) return fmt::format("/10^{}", r.decimals);
+    if (r.scale != 1.0) return fmt::format("x{}", number_text(r.scale));
+    return "";
+}
+
+std::string range_text(const Register& r) {
+    if (!r.min && !r.max) return "";
+    return fmt::format("{}..{}", r.min ? number_text(*r.min) : "",
+                       r.max ? number_text(*r.max) : "");
+}
+
+int list_profiles(const BusArgs& args) {
+    auto bus = build_bus(args);
+    if (!bus) {
+        print_error(bus.error());
+        return 1;
+    }
+    fmt::print("{:<18} {:<10} {:>9}  {}\n", "name", "addresses", "registers", "device");
+    for (const Profile* p : (*bus)->profiles()) {
+        fmt::print("{:<18} {:<10} {:>9}  {}\n", p->name,
+                   fmt::format("{}-{}", p->first_address, p->last_address), p->registers.size(),
+                   p->title);
+    }
+    return 0;
+}
+
+int show_profile(const BusArgs& args, const std::string& name) {
+    auto bus = build_bus(args);
+    if (!bus) {
+        print_error(bus.error());
+        return 1;
+    }
+    const Profile* p = (*bus)->find_profile(name);
+    if (p == nullptr) {
+        fmt::print(stderr, "rtuscope: error: unknown profile \"{}\" (rtuscope profiles list)\n",
+                   name);
+        return 1;
+    }
+    fmt::print("{}: {}\n", p->name, p->title);
+    if (!p->source.empty()) fmt::print("source: {}\n", p->source);
+    fmt::print("file: {}\n", p->file);
+    fmt::print("line: {}\n", p->line ? fmt::format("{} {}", p->line->baud, p->line->format())
+                                     : std::string("not given"));
+    fmt::print("addresses: {}-{}{}\n", p->first_address, p->last_address,
+               p->broadcast ? fmt::format(", broadcast {}", *p->broadcast) : std::string());
+    fmt::print("exception answers: {}\n",
+               p->exception_answers ? "yes" : "no (errors are answered with silence)");
+    fmt::print("registers per request: at most {}\n", p->max_registers);
+    for (const FunctionOverride& f : p->functions) {
+        const char* answer = f.answer == FunctionOverride::Answer::echo   ? "echo"
+                             : f.answer == FunctionOverride::Answer::none ? "none"
+                                                                          : "standard";
+        fmt::print("function 0x{:02X} {}: request {} bytes, answer {}{}\n", f.code, f.name,
+                   f.request_length != 0 ? std::to_string(f.request_length) : "standard", answer,
+                   f.layout.empty() ? "" : fmt::format(", {} in table {}", f.layout, f.table));
+    }
+    fmt::print("\n{:<9} {:<7} {:<24} {:<6} {:<7} {:<8} {:<6} {:<14} {}\n", "table", "address",
+               "name", "type", "scale", "unit", "access", "range", "description");
+    for (const Register& r : p->registers) {
+        std::string extra = r.description;
+        for (const auto& [raw, label] : r.labels) {
+            extra += fmt::format("{}{}={}", extra.empty() ? "" : "; ", raw, label);
+        }
+        for (const auto& [raw, meaning] : r.writes) {
+            extra += fmt::format("{}write 0x{:04X}: {}", extra.empty() ? "" : "; ", raw, meaning);
+        }
+        fmt::print("{:<9} 0x{:04X}  {:<24} {:<6} {:<7} {:<8} {:<6} {:<14} {}\n", r.table, r.address,
+                   r.name, type_text(r.type), scale_text(r), r.unit, access_text(r.access),
+                   range_text(r), extra);
+    }
+    return 0;
+}
+
+int check_profiles(const std::vector<std::string>& files) {
+    int status = 0;
+    for (const std::string& file : files) {
+        ProfileLoad load = load_profile_file(file);
+        if (!load.problems.empty() || !load.profile) {
+            // Like a compiler's diagnostics: on stderr, one per line, so that editors and
+            // CI logs can jump to FILE:LINE:COL.
+            for (const ProfileProblem& problem : load.problems) {
+                fmt::print(stderr, "{}\n", problem.to_string());
+            }
+            status = 1;
+            continue;
+        }
+        fmt::print("{}: ok, profile \"{}\" with {} registers\n", file, load.profile->name,
+                   load.profile->registers.size());
+    }
+    return status;
+}
+
+}  // namespace
+
+void add_profiles_command(CLI::App& app, int& exit_code) {
+    CLI::App* cmd = app.add_subcommand("profiles", "List, show and check device profiles");
+    cmd->require_subcommand(1);
+
+    auto list_args = std::make_shared<BusArgs>();
+    CLI::App* list = cmd->add_subcommand("list", "The profiles rtuscope knows");
+    add_bus_options(*list, *list_args);
+    list->callback([list_args, &exit_code] { exit_code = list_profiles(*list_args); });
+
+    auto show_args = std::make_shared<BusArgs>();
+    auto name = std::make_shared<std::string>();
+    CLI::App* show = cmd->add_subcommand("show", "One profile's register table");
+    show->add_option("NAME", *name, "Profile name (rtuscope profiles list)")->required();
+    add_bus_options(*show, *show_args);
+    show->callback([show_args, name, &exit_code] { exit_code = show_profile(*show_args, *name); });
+
+    auto files = std::make_shared<std::vector<std::string>>();
+    CLI::App* check = cmd->add_subcommand(
+        "check", "Validate profile files: every mistake as FILE:LINE:COL: message");
+    check->add_option("FILE", *files, "Profile files")->required();
+    check->callback([files, &exit_code] { exit_code = check_profiles(*files); });
+}
+
+}  // namespace rtuscope::cli

@@ -1,0 +1,211 @@
+// The bus map and the protocol rules a device's profile brings: its own function codes
+// (length, echo answers), its broadcast address, silence instead of exceptions.
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <fstream>
+
+#include "rtuscope/bus.hpp"
+#include "rtuscope/pipeline.hpp"
+#include "support.hpp"
+
+namespace rtuscope {
+namespace {
+
+using test::Bytes;
+using test::has_note;
+using test::Line;
+using test::with_crc;
+
+// A device like the ZB-UVI485: FC04 and FC05 are its own writes answered by an echo,
+// it listens on 255 for broadcasts and never answers with an exception.
+Profile uv_like() {
+    Profile p;
+    p.name = "uv-test";
+    p.broadcast = 255;
+    p.exception_answers = false;
+    FunctionOverride set_coefficient;
+    set_coefficient.code = 0x04;
+    set_coefficient.name = "Set correction coefficient";
+    set_coefficient.request_length = 8;
+    set_coefficient.answer = FunctionOverride::Answer::echo;
+    set_coefficient.layout = "address_value";
+    set_coefficient.table = "eeprom";
+    FunctionOverride fire_and_forget;
+    fire_and_forget.code = 0x42;
+    fire_and_forget.name = "Blink";
+    fire_and_forget.request_length = 5;
+    fire_and_forget.answer = FunctionOverride::Answer::none;
+    p.functions = {set_coefficient, fire_and_forget};
+    Register intensity;
+    intensity.name = "uv_intensity";
+    intensity.scale = 0.1;
+    intensity.unit = "uW/cm2";
+    Register coefficient;
+    coefficient.table = "eeprom";
+    coefficient.address = 0x0015;
+    coefficient.name = "correction_coefficient";
+    coefficient.scale = 0.1;
+    coefficient.access = Access::write;
+    p.registers = {coefficient, intensity};
+    return p;
+}
+
+struct BusHarness {
+    BusHarness() {
+        bus.add_profile(uv_like());
+        EXPECT_TRUE(bus.assign(1, "uv-test"));
+    }
+    std::vector<Record> run(const std::vector<Chunk>& chunks) {
+        BusRules rules(bus);
+        std::vector<Record> records;
+        Transactions transactions({kNanosPerSecond, &rules}, [&](Record&& r) {
+            decode_record(r, &bus);
+            records.push_back(std::move(r));
+        });
+        FramerOptions o;
+        o.rules = &rules;
+        o.expectation = &transactions;
+        Framer framer(o, [&](Frame&& f) { transactions.push(std::move(f)); });
+        for (const Chunk& c : chunks) framer.push(c);
+        framer.finish();
+        transactions.finish();
+        return records;
+    }
+    Bus bus;
+};
+
+TEST(Bus, OwnFunctionCodeIsFramedAndPairedAsAnEcho) {
+    // Standard Modbus would read 01 04 00 15 00 12 as "Read Input Registers 0x0015 x18"
+    // and expect a 41-byte answer; the profile says an 8-byte request and its echo.
+    const Bytes set = with_crc({0x01, 0x04, 0x00, 0x15, 0x00, 0x12});
+    Line line;
+    line.silence(10).send_per_byte(set).silence(5).send_per_byte(set);
+    BusHarness h;
+    const auto r = h.run(line.chunks());
+    ASSERT_EQ(r.size(), 2U);
+    EXPECT_EQ(r[0].kind, Kind::request);
+    EXPECT_EQ(r[1].kind, Kind::response);
+    EXPECT_EQ(r[1].request_number, 1U);
+    EXPECT_EQ(r[0].decoded.function_name, "Set correction coefficient");
+    EXPECT_EQ(r[0].decoded.summary, "0x0015 = 0x0012");
+    ASSERT_EQ(r[0].decoded.blocks.size(), 1U);
+    EXPECT_EQ(r[0].decoded.blocks[0].custom_table, "eeprom");
+    EXPECT_EQ(r[0].profile->name, "uv-test");
+}
+
+TEST(Bus, OwnBroadcastAddressExpectsNoAnswer) {
+    const Bytes broadcast = with_crc({0xFF, 0x04, 0x00, 0x15, 0x00, 0x12});
+    BusHarness h;
+    Line line;
+    line.silence(10).send_per_byte(broadcast).silence(200);
+    const auto r = h.run(line.chunks());
+    ASSERT_EQ(r.size(), 1U);
+    EXPECT_EQ(r[0].kind, Kind::broadcast);
+    EXPECT_FALSE(has_note(r[0], note_id::no_answer));
+    EXPECT_EQ(r[0].decoded.function_name, "Set correction coefficient");
+}
+
+TEST(Bus, AddressZeroIsADeviceWhenItsProfileBroadcastsElsewhere) {
+    const Bytes read = with_crc({0x00, 0x03, 0x00, 0x00, 0x00, 0x01});
+    const Bytes answer = with_crc({0x00, 0x03, 0x02, 0x18, 0x18});
+    Line line;
+    line.silence(10).send_per_byte(read).silence(5).send_per_byte(answer);
+    BusHarness h;
+    ASSERT_TRUE(h.bus.assign(0, "uv-test"));
+    const auto r = h.run(line.chunks());
+    ASSERT_EQ(r.size(), 2U);
+    EXPECT_EQ(r[0].kind, Kind::request);
+    EXPECT_EQ(r[1].kind, Kind::response);
+    EXPECT_EQ(r[1].request_number, 1U);
+    // Without that device on 0, address 0 is the standard broadcast.
+    BusHarness standard;
+    const auto s = standard.run(line.chunks());
+    ASSERT_GE(s.size(), 1U);
+    EXPECT_EQ(s[0].kind, Kind::broadcast);
+}
+
+TEST(Bus, SilenceInsteadOfExceptionsIsSaid) {
+    const Bytes read = with_crc({0x01, 0x03, 0x01, 0x00, 0x00, 0x01});
+    const Bytes exception = with_crc({0x01, 0x83, 0x02});
+    BusHarness h;
+    Line line;
+    line.silence(10).send_per_byte(read).silence_ms(1500).send_per_byte(read).silence(5);
+    line.send_per_byte(exception);
+    const auto r = h.run(line.chunks());
+    ASSERT_EQ(r.size(), 3U);
+    ASSERT_TRUE(has_note(r[0], note_id::no_answer));
+    EXPECT_EQ(r[0].notes.back().text,
+              "no answer within 1 s (this device answers errors with silence)");
+    EXPECT_EQ(r[2].kind, Kind::exception);
+    EXPECT_TRUE(has_note(r[2], note_id::unexpected_exception));
+}
+
+TEST(Bus, FunctionThatIsNeverAnsweredIsNotAwaited) {
+    const Bytes blink = with_crc({0x01, 0x42, 0x07});
+    BusHarness h;
+    const auto r = h.run({Chunk{kNoTime, "", blink, 0}});
+    ASSERT_EQ(r.size(), 1U);
+    EXPECT_EQ(r[0].kind, Kind::request);
+    EXPECT_FALSE(has_note(r[0], note_id::no_answer));
+}
+
+TEST(Bus, OtherSlavesKeepTheStandardRules) {
+    const Bytes read_inputs = with_crc({0x02, 0x04, 0x00, 0x15, 0x00, 0x02});
+    BusHarness h;
+    const auto r = h.run({Chunk{kNoTime, "", read_inputs, 0}});
+    ASSERT_EQ(r.size(), 1U);
+    EXPECT_EQ(r[0].decoded.function_name, "Read Input Registers");
+    EXPECT_EQ(r[0].profile, nullptr);
+}
+
+TEST(Bus, RequestOverTheDevicesRegisterLimitIsNoted) {
+    BusHarness h;
+    Profile small = uv_like();
+    small.name = "small";
+    small.max_registers = 100;
+    h.bus.add_profile(small);
+    ASSERT_TRUE(h.bus.assign(2, "small"));
+    const auto r = h.run({Chunk{kNoTime, "", with_crc({0x02, 0x03, 0x00, 0x00, 0x00, 0x65}), 0},
+                          Chunk{kNoTime, "", with_crc({0x02, 0x03, 0x00, 0x00, 0x00, 0x64}), 0}});
+    ASSERT_EQ(r.size(), 2U);
+    ASSERT_TRUE(has_note(r[0], note_id::over_device_limit));
+    EXPECT_EQ(r[0].notes.back().text, "101 registers asked, small allows at most 100");
+    EXPECT_FALSE(has_note(r[1], note_id::over_device_limit));
+}
+
+TEST(Bus, DeviceOption) {
+    Bus bus;
+    bus.add_profile(uv_like());
+    EXPECT_TRUE(assign_device_option(bus, "7=uv-test"));
+    EXPECT_TRUE(assign_device_option(bus, "0x10=uv-test"));
+    EXPECT_EQ(bus.profile_for(7)->name, "uv-test");
+    EXPECT_EQ(bus.profile_for(16)->name, "uv-test");
+    EXPECT_EQ(bus.profile_for(8), nullptr);
+    const Status unknown = assign_device_option(bus, "3=nosuch");
+    ASSERT_FALSE(unknown);
+    EXPECT_NE(unknown.error().message.find("unknown profile \"nosuch\""), std::string::npos);
+    EXPECT_FALSE(assign_device_option(bus, "300=uv-test"));
+    EXPECT_FALSE(assign_device_option(bus, "uv-test"));
+}
+
+TEST(Bus, BusFileErrorsNameTheLine) {
+    const std::string path = ::testing::TempDir() + "/bus_test.toml";
+    {
+        std::ofstream out(path);
+        out << "line = \"9600 8E1\"\n\n[[device]]\naddress = 1\nprofile = \"uv-test\"\n\n"
+               "[[device]]\naddress = 2\nprofile = \"nosuch\"\n";
+    }
+    Bus bus;
+    bus.add_profile(uv_like());
+    const Status status = load_bus_file(bus, path);
+    ASSERT_FALSE(status);
+    EXPECT_EQ(status.error().line, 9);
+    EXPECT_EQ(bus.profile_for(1)->name, "uv-test");
+    ASSERT_TRUE(bus.line());
+    EXPECT_EQ(bus.line()->format(), "8E1");
+    std::remove(path.c_str());
+}
+
+}  // namespace
+}  // namespace rtuscope
