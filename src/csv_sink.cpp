@@ -65,6 +65,8 @@ class CsvSink final : public RecordSink {
         std::fwrite(line.data(), 1, line.size(), out_);
     }
 
+    void flush() override { std::fflush(out_); }
+
     void end(const Totals& /*totals*/, const std::vector<std::string>& /*remarks*/) override {
         std::fflush(out_);
     }

@@ -92,11 +92,22 @@ void Framer::push(const Chunk& chunk) {
         exact_.push_back(chunk.bytes.size() == 1 && previous_chunk_single_);
         channel_.push_back(channel);
         line_.push_back(chunk.source_line);
+        char_error_.push_back(false);
+    }
+    for (const std::uint32_t offset : chunk.char_errors) {
+        if (offset < chunk.bytes.size())
+            char_error_[bytes_.size() - chunk.bytes.size() + offset] = true;
     }
     if (has_time(chunk.time)) last_end_ = chunk.time;
     previous_chunk_single_ = chunk.bytes.size() == 1;
     seen_bytes_ = true;
     decide(false);
+}
+
+void Framer::idle(Nanos now, Nanos idle_margin) {
+    if (pos_ >= bytes_.size() || !has_time(last_end_) || !has_time(now)) return;
+    if (now - last_end_ < t35_ + idle_margin) return;
+    decide(true);
 }
 
 void Framer::finish() {
@@ -127,9 +138,13 @@ Framer::Attempt Framer::attempt_at(std::size_t at, bool at_end) const {
     const std::uint8_t function = head[1];
     const ProtocolRules& rules = *options_.rules;
 
-    // Which reading the request/answer sequence expects here.
+    // Which reading the request/answer sequence expects here; on a two-port tap the
+    // port it came from says it outright.
     bool prefer_response = awaits_answer(head, byte_end_[at]);
-    if (prefer_response) {
+    const std::string& channel = channels_[channel_[at]];
+    if (!channel.empty() && !options_.request_channel.empty()) {
+        prefer_response = channel != options_.request_channel;
+    } else if (prefer_response) {
         // The same request sent again (a master's retry) is not an answer, unless answers
         // to this function repeat the request anyway.
         const auto& req = options_.expectation->awaited(byte_end_[at])->request;
@@ -316,6 +331,7 @@ void Framer::decide(bool at_end) {
         exact_.erase(exact_.begin(), exact_.begin() + drop);
         channel_.erase(channel_.begin(), channel_.begin() + drop);
         line_.erase(line_.begin(), line_.begin() + drop);
+        char_error_.erase(char_error_.begin(), char_error_.begin() + drop);
         scan_hint_ = scan_hint_ > pos_ ? scan_hint_ - pos_ : 0;
         pos_ = 0;
     }
@@ -446,6 +462,13 @@ void Framer::emit(std::size_t at, std::size_t length, RecordClass cls, Reading r
     if (cls != RecordClass::noise && !cut_short) add_crc_note(frame);
     frame.notes.insert(frame.notes.end(), notes.begin(), notes.end());
     if (cls != RecordClass::noise) add_timing_notes(frame, at, length);
+    std::string hit;
+    for (std::size_t j = at; j < at + length; ++j) {
+        if (char_error_[j]) hit += (hit.empty() ? "" : ", ") + std::to_string(j - at + 1);
+    }
+    if (!hit.empty()) {
+        frame.notes.push_back({note_id::char_error, "parity/framing error on byte " + hit});
+    }
     pos_ = at + length;
     scan_hint_ = 0;
     emit_(std::move(frame));

@@ -142,7 +142,8 @@ void decode_record(Record& record, const Bus* bus) {
     }
 }
 
-Status run_pipeline(ChunkSource& source, const PipelineOptions& options, RecordSink& sink) {
+Status run_pipeline(ChunkSource& source, const PipelineOptions& options, RecordSink& sink,
+                    Totals* totals_out) {
     SessionInfo session;
     session.source = source.info();
     // The capture header, else the bus file or the devices' profiles, else 9600 8N1.
@@ -166,6 +167,7 @@ Status run_pipeline(ChunkSource& source, const PipelineOptions& options, RecordS
         decode_record(record, options.bus);
         count(totals, record);
         sink.record(record);
+        if (options.live) sink.flush();
     });
     FramerOptions framer_options;
     framer_options.line = session.line;
@@ -183,11 +185,17 @@ Status run_pipeline(ChunkSource& source, const PipelineOptions& options, RecordS
             break;
         }
         if (!*more) break;
+        if (chunk.bytes.empty()) {
+            framer.idle(chunk.time, options.idle_margin);
+            transactions.tick(chunk.time);
+            continue;
+        }
         framer.push(chunk);
     }
     framer.finish();
     transactions.finish();
     sink.end(totals, source.remarks());
+    if (totals_out != nullptr) *totals_out = totals;
     return status;
 }
 

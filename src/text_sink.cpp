@@ -99,6 +99,8 @@ class TextSink final : public RecordSink {
         if (has_time(r.frame.start)) previous_ = r.frame.start;
     }
 
+    void flush() override { std::fflush(out_); }
+
     void end(const Totals& t, const std::vector<std::string>& remarks) override {
         fmt::print(out_,
                    "-- {} records, {} bytes: {} requests, {} answers, {} exceptions, "

@@ -64,11 +64,7 @@ void Transactions::push(Frame&& frame) {
     const Frame& f = record.frame;
 
     // A request that has waited past the timeout by the time this frame starts.
-    if (awaiting_ && has_time(f.start) && has_time(awaited_end_) &&
-        f.start - awaited_end_ > options_.timeout) {
-        give_up_on_request(
-            fmt::format("no answer within {:g} s", static_cast<double>(options_.timeout) / 1e9));
-    }
+    tick(f.start);
 
     const bool answer_reading = f.reading == Reading::response || f.reading == Reading::exception;
     const bool matches_awaited =
@@ -136,6 +132,14 @@ void Transactions::push(Frame&& frame) {
         awaited_end_ = request.end;
     }
     release();
+}
+
+void Transactions::tick(Nanos now) {
+    if (awaiting_ && has_time(now) && has_time(awaited_end_) &&
+        now - awaited_end_ > options_.timeout) {
+        give_up_on_request(
+            fmt::format("no answer within {:g} s", static_cast<double>(options_.timeout) / 1e9));
+    }
 }
 
 void Transactions::finish() {

@@ -36,6 +36,8 @@ class ValuesCsvSink final : public RecordSink {
         }
     }
 
+    void flush() override { std::fflush(out_); }
+
     void end(const Totals& /*totals*/, const std::vector<std::string>& /*remarks*/) override {
         std::fflush(out_);
     }

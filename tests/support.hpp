@@ -41,14 +41,14 @@ class Line {
     Line& send_per_byte(const Bytes& bytes) {
         for (std::uint8_t b : bytes) {
             now_ += char_;
-            chunks_.push_back({now_, "", {b}, 0});
+            chunks_.push_back({now_, "", {b}, 0, {}});
         }
         return *this;
     }
     // Bytes sent back to back, delivered as one chunk when the last has arrived.
     Line& send_chunk(const Bytes& bytes) {
         now_ += char_ * static_cast<Nanos>(bytes.size());
-        chunks_.push_back({now_, "", bytes, 0});
+        chunks_.push_back({now_, "", bytes, 0, {}});
         return *this;
     }
     Line& silence(double characters) {
@@ -62,7 +62,7 @@ class Line {
     // A chunk handed over at an absolute time (USB batching).
     Line& deliver_at(Nanos time, const Bytes& bytes) {
         now_ = time;
-        chunks_.push_back({time, "", bytes, 0});
+        chunks_.push_back({time, "", bytes, 0, {}});
         return *this;
     }
     [[nodiscard]] const std::vector<Chunk>& chunks() const { return chunks_; }

@@ -144,7 +144,7 @@ TEST(Bus, SilenceInsteadOfExceptionsIsSaid) {
 TEST(Bus, FunctionThatIsNeverAnsweredIsNotAwaited) {
     const Bytes blink = with_crc({0x01, 0x42, 0x07});
     BusHarness h;
-    const auto r = h.run({Chunk{kNoTime, "", blink, 0}});
+    const auto r = h.run({Chunk{kNoTime, "", blink, 0, {}}});
     ASSERT_EQ(r.size(), 1U);
     EXPECT_EQ(r[0].kind, Kind::request);
     EXPECT_FALSE(has_note(r[0], note_id::no_answer));
@@ -153,7 +153,7 @@ TEST(Bus, FunctionThatIsNeverAnsweredIsNotAwaited) {
 TEST(Bus, OtherSlavesKeepTheStandardRules) {
     const Bytes read_inputs = with_crc({0x02, 0x04, 0x00, 0x15, 0x00, 0x02});
     BusHarness h;
-    const auto r = h.run({Chunk{kNoTime, "", read_inputs, 0}});
+    const auto r = h.run({Chunk{kNoTime, "", read_inputs, 0, {}}});
     ASSERT_EQ(r.size(), 1U);
     EXPECT_EQ(r[0].decoded.function_name, "Read Input Registers");
     EXPECT_EQ(r[0].profile, nullptr);
@@ -166,8 +166,9 @@ TEST(Bus, RequestOverTheDevicesRegisterLimitIsNoted) {
     small.max_registers = 100;
     h.bus.add_profile(small);
     ASSERT_TRUE(h.bus.assign(2, "small"));
-    const auto r = h.run({Chunk{kNoTime, "", with_crc({0x02, 0x03, 0x00, 0x00, 0x00, 0x65}), 0},
-                          Chunk{kNoTime, "", with_crc({0x02, 0x03, 0x00, 0x00, 0x00, 0x64}), 0}});
+    const auto r =
+        h.run({Chunk{kNoTime, "", with_crc({0x02, 0x03, 0x00, 0x00, 0x00, 0x65}), 0, {}},
+               Chunk{kNoTime, "", with_crc({0x02, 0x03, 0x00, 0x00, 0x00, 0x64}), 0, {}}});
     ASSERT_EQ(r.size(), 2U);
     ASSERT_TRUE(has_note(r[0], note_id::over_device_limit));
     EXPECT_EQ(r[0].notes.back().text, "101 registers asked, small allows at most 100");

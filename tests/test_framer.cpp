@@ -270,8 +270,9 @@ TEST(Framer, GapInsideAFrameIsNoted) {
 TEST(Framer, HexLinesAreOneFrameEachRightOrWrong) {
     Bytes bad = kReadAnswer;
     bad[5] ^= 0xFF;
-    std::vector<Chunk> lines{
-        {kNoTime, "", kRead, 1}, {kNoTime, "", bad, 2}, {kNoTime, "", {0x01, 0x03, 0x00}, 3}};
+    std::vector<Chunk> lines{{kNoTime, "", kRead, 1, {}},
+                             {kNoTime, "", bad, 2, {}},
+                             {kNoTime, "", {0x01, 0x03, 0x00}, 3, {}}};
     Harness h(true);
     const auto& r = h.run(lines);
     ASSERT_EQ(r.size(), 3U);

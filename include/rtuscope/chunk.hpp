@@ -20,6 +20,9 @@ struct Chunk {
     std::string channel;   // "@NAME" of a two-port tap; empty when there is one line
     std::vector<std::uint8_t> bytes;
     int source_line = 0;  // line in the input file, 0 when the source has no lines
+    // Offsets of bytes the UART received with a parity or framing error (a live tty with
+    // PARMRK); such a byte is kept as it came, and the frame it lands in says so.
+    std::vector<std::uint32_t> char_errors;
 };
 
 // What a source knows about itself once its header (if any) has been read.

@@ -26,6 +26,10 @@ struct FramerOptions {
     bool chunk_is_frame = false;  // hex logs: each chunk is exactly one frame
     const ProtocolRules* rules = &standard_rules();
     const AnswerExpectation* expectation = nullptr;  // usually the pairing stage
+    // Two-port taps (one port per direction): chunks tagged with this channel carry the
+    // master's requests, chunks of any other channel the slaves' answers. Chunks without
+    // a channel are told apart by shape and order as usual.
+    std::string request_channel = "master";
 };
 
 class Framer {
@@ -36,6 +40,11 @@ class Framer {
 
     // Adds a chunk; emits every record that the bytes so far decide.
     void push(const Chunk& chunk);
+    // Live input: nothing has arrived up to `now`. Once the line has been quiet for
+    // longer than t3.5 plus `idle_margin`, what is buffered is decided as if the input
+    // ended there (the next byte will come after a gap anyway), so a frame whose end no
+    // length tells is printed when the line goes idle, not when the next frame starts.
+    void idle(Nanos now, Nanos idle_margin);
     // No more input: decides and emits everything still buffered.
     void finish();
 
@@ -88,6 +97,7 @@ class Framer {
     std::vector<bool> exact_;  // this byte and the one before came alone (per-byte timing)
     std::vector<std::uint16_t> channel_;
     std::vector<int> line_;
+    std::vector<bool> char_error_;  // the UART flagged this byte (parity/framing)
     std::size_t pos_ = 0;
     std::size_t scan_hint_ = 0;  // bytes before it are known to start no frame
     std::vector<std::string> channels_;

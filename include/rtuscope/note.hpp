@@ -25,6 +25,7 @@ inline constexpr const char* short_gap = "frame.short_gap";              // < t3
 inline constexpr const char* split_by_length = "frame.split_by_length";  // not delimited by a gap
 inline constexpr const char* unknown_length = "frame.unknown_length";  // length found by CRC search
 inline constexpr const char* noise = "frame.noise";
+inline constexpr const char* char_error = "frame.char_error";  // parity/framing error (tty)
 // transactions
 inline constexpr const char* no_answer = "txn.no_answer";
 inline constexpr const char* unsolicited = "txn.unsolicited";  // answer with no request

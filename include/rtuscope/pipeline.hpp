@@ -21,6 +21,12 @@ struct PipelineOptions {
     std::optional<LineSettings> format;  // data/parity/stop bits; overrides the header
     Nanos timeout = kNanosPerSecond;
     const Bus* bus = nullptr;  // which slave is which device; none: standard decoding only
+    // Live input (a tty): every record is flushed to the sink's output as soon as it is
+    // decided, and what is buffered is decided once the line has been quiet for t3.5
+    // plus this margin. The margin covers USB adapters, which hand over bytes in batches
+    // up to 16 ms apart even while a frame is still arriving.
+    bool live = false;
+    Nanos idle_margin = 20'000'000;
 };
 
 // What a sink is told before the first record.
@@ -55,11 +61,16 @@ class RecordSink {
     virtual void record(const Record& record) = 0;
     // `remarks`: what the source wants the user told (e.g. skipped lines).
     virtual void end(const Totals& totals, const std::vector<std::string>& remarks) = 0;
+    // Live output: push what has been written to its reader now.
+    virtual void flush() {}
 };
 
 // Decodes everything the source delivers into the sink. On a source error, everything
-// read before it is still decoded and delivered, then the error is returned.
-Status run_pipeline(ChunkSource& source, const PipelineOptions& options, RecordSink& sink);
+// read before it is still decoded and delivered, then the error is returned. A chunk
+// with no bytes but a time is a live source saying that nothing came until then.
+// `totals`, when given, receives the closing counts.
+Status run_pipeline(ChunkSource& source, const PipelineOptions& options, RecordSink& sink,
+                    Totals* totals = nullptr);
 
 // The decoder stage for one record: the standard PDU, or the device's own function code,
 // and the register values in the device's words when the bus map has its profile.

@@ -56,6 +56,9 @@ class Transactions : public AnswerExpectation {
     Transactions(TransactionOptions options, Emit emit);
 
     void push(Frame&& frame);
+    // Live input: the time is `now` and nothing came; a request whose timeout has passed
+    // is given up on now rather than when the next frame arrives.
+    void tick(Nanos now);
     void finish();
 
     [[nodiscard]] const AwaitedAnswer* awaited(Nanos at) const override;

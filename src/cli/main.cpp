@@ -7,6 +7,7 @@
 
 #include "decode_command.hpp"
 #include "profiles_command.hpp"
+#include "sniff_command.hpp"
 
 int main(int argc, char** argv) {
     CLI::App app{
@@ -16,6 +17,8 @@ int main(int argc, char** argv) {
     app.require_subcommand(1);
     int exit_code = 0;
     rtuscope::cli::add_decode_command(app, exit_code);
+    rtuscope::cli::add_sniff_command(app, exit_code);
+    rtuscope::cli::add_demo_command(app, exit_code);
     rtuscope::cli::add_profiles_command(app, exit_code);
     try {
         app.parse(argc, argv);

@@ -1,0 +1,42 @@
+// The options every decoding command shares (decode, sniff, demo): line settings, the
+// output format, pairing timeout and the bus map, and turning them into a pipeline.
+#pragma once
+
+#include <CLI/CLI.hpp>
+#include <cstdio>
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "bus_options.hpp"
+#include "rtuscope/pipeline.hpp"
+
+namespace rtuscope::cli {
+
+struct OutputArgs {
+    std::string baud;
+    std::string format;
+    bool csv = false;
+    bool values_csv = false;
+    double timeout_s = 1.0;
+    std::string time_format = "a";
+    bool hex = false;
+    bool no_color = false;
+    BusArgs bus;
+};
+
+void add_output_options(CLI::App& cmd, OutputArgs& args);
+
+// Everything the options decide, checked; errors are printed here. nullopt then, with
+// `exit_code` set (2 for bad options, 1 for bad profile or bus files).
+struct Decoding {
+    std::unique_ptr<Bus> bus;
+    PipelineOptions options;
+    std::unique_ptr<RecordSink> sink;
+};
+std::optional<Decoding> prepare_decoding(const OutputArgs& args, int& exit_code);
+
+// The line settings for a live port: --baud/--format, else the bus map's, else 9600 8N1.
+LineSettings live_line(const Decoding& decoding);
+
+}  // namespace rtuscope::cli

@@ -1,0 +1,175 @@
+#include "sniff_command.hpp"
+
+#include <fmt/format.h>
+
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <csignal>
+#include <memory>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "errors.hpp"
+#include "output_options.hpp"
+#include "rtuscope/capture_writer.hpp"
+#include "rtuscope/sim.hpp"
+#include "rtuscope/tty.hpp"
+
+namespace rtuscope::cli {
+namespace {
+
+std::atomic<bool> g_stop{false};
+
+extern "C" void on_stop_signal(int /*signal*/) {
+    g_stop.store(true);
+}
+
+// Ctrl-C and SIGTERM end the run cleanly: the tty source sees the flag (its poll() is
+// interrupted, no SA_RESTART) and the pipeline flushes everything decided so far.
+void install_stop_handlers() {
+    struct sigaction action {};
+    action.sa_handler = on_stop_signal;
+    sigemptyset(&action.sa_mask);
+    action.sa_flags = 0;
+    sigaction(SIGINT, &action, nullptr);
+    sigaction(SIGTERM, &action, nullptr);
+}
+
+struct LiveArgs {
+    OutputArgs output;
+    std::string write_file;
+    double seconds = 0;  // 0: until stopped
+};
+
+void add_live_options(CLI::App& cmd, LiveArgs& args) {
+    cmd.add_option("-w,--write", args.write_file,
+                   "Also record the raw chunks to FILE in the native capture format")
+        ->type_name("FILE");
+    cmd.add_option("--seconds", args.seconds, "Stop after this many seconds (default: Ctrl-C)")
+        ->check(CLI::PositiveNumber);
+    add_output_options(cmd, args.output);
+}
+
+// Runs the pipeline on open ports until they go away, --seconds pass or a signal comes;
+// a short summary goes to stderr.
+int run_live(const LiveArgs& args, Decoding& decoding, TtyOptions tty) {
+    tty.line = live_line(decoding);
+    tty.stop = &g_stop;
+    if (args.seconds > 0) tty.duration = static_cast<Nanos>(std::llround(args.seconds * 1e9));
+    std::vector<std::string> notices;
+    auto source = open_tty_source(tty, &notices);
+    if (!source) return print_error(source.error()), 1;
+    for (const std::string& notice : notices) fmt::print(stderr, "rtuscope: note: {}\n", notice);
+    std::unique_ptr<ChunkSource> input = std::move(*source);
+    if (!args.write_file.empty()) {
+        auto recording = record_capture(std::move(input), args.write_file);
+        if (!recording) return print_error(recording.error()), 1;
+        input = std::move(*recording);
+    }
+    decoding.options.live = true;
+    // The port's settings are the line's: a capture header cannot say otherwise here.
+    decoding.options.baud = tty.line.baud;
+    decoding.options.format = tty.line;
+
+    Totals totals;
+    const Status status = run_pipeline(*input, decoding.options, *decoding.sink, &totals);
+    fmt::print(stderr,
+               "rtuscope: {} frames ({} requests, {} answers, {} exceptions), {} errors ({} "
+               "bad CRC, {} invalid, {} noise bytes), {} requests without answer\n",
+               totals.records - totals.noise_runs, totals.requests, totals.responses,
+               totals.exceptions, totals.crc_bad + totals.invalid + totals.noise_runs,
+               totals.crc_bad, totals.invalid, totals.noise_bytes, totals.unanswered);
+    if (!status) return print_error(status.error()), 1;
+    return 0;
+}
+
+struct SniffArgs {
+    std::vector<std::string> ports;
+    LiveArgs live;
+};
+
+int run_sniff(const SniffArgs& args) {
+    int exit_code = 0;
+    auto decoding = prepare_decoding(args.live.output, exit_code);
+    if (!decoding) return exit_code;
+    TtyOptions tty;
+    tty.ports = args.ports;
+    install_stop_handlers();
+    return run_live(args.live, *decoding, tty);
+}
+
+struct DemoArgs {
+    LiveArgs live;
+};
+
+// The four seed devices at 1-4, a master polling them, all on a paced virtual bus; the
+// sniffer listens on a port of its own exactly as on a real adapter.
+int run_demo(DemoArgs args) {
+    args.live.output.bus.devices.insert(
+        args.live.output.bus.devices.begin(),
+        {"1=zb-uvi485", "2=sensor-analyser", "3=pdu485", "4=zyi-relay"});
+    int exit_code = 0;
+    auto decoding = prepare_decoding(args.live.output, exit_code);
+    if (!decoding) return exit_code;
+    const LineSettings line = live_line(*decoding);
+
+    auto bus = sim::VirtualBus::create(6, {line, true});
+    if (!bus) return print_error(bus.error()), 1;
+    const std::array<const char*, 4> kinds = {"zb-uvi485", "sensor-analyser", "pdu485",
+                                              "zyi-relay"};
+    std::vector<std::unique_ptr<sim::Device>> devices;
+    for (std::size_t i = 0; i < kinds.size(); ++i) {
+        auto device = sim::start_device(kinds[i], static_cast<std::uint8_t>(i + 1),
+                                        (*bus)->port_path(i + 1), line);
+        if (!device) return print_error(device.error()), 1;
+        devices.push_back(std::move(*device));
+    }
+    install_stop_handlers();
+    TtyOptions tty;
+    tty.ports = {(*bus)->port_path(5)};
+    // The sniffer opens its port first, so that it hears the master's first request.
+    std::unique_ptr<sim::Master> master;
+    std::thread starter([&] {
+        std::this_thread::sleep_for(std::chrono::milliseconds(100));
+        auto started = sim::start_master((*bus)->port_path(0), line, {}, 0, 50);
+        if (started) {
+            master = std::move(*started);
+        } else {
+            print_error(started.error());
+            g_stop.store(true);
+        }
+    });
+    const int code = run_live(args.live, *decoding, tty);
+    starter.join();
+    if (master) master->stop();
+    return code;
+}
+
+}  // namespace
+
+void add_sniff_command(CLI::App& app, int& exit_code) {
+    auto args = std::make_shared<SniffArgs>();
+    CLI::App* cmd = app.add_subcommand(
+        "sniff", "Decode a live RS-485 line (read-only: rtuscope never transmits)");
+    cmd->add_option("PORT", args->ports,
+                    "Serial port, e.g. /dev/ttyUSB0; two ports for a full-duplex tap (one per "
+                    "direction, the first hearing the master)")
+        ->required()
+        ->expected(1, 2);
+    add_live_options(*cmd, args->live);
+    cmd->callback([args, &exit_code] { exit_code = run_sniff(*args); });
+}
+
+void add_demo_command(CLI::App& app, int& exit_code) {
+    auto args = std::make_shared<DemoArgs>();
+    CLI::App* cmd = app.add_subcommand(
+        "demo",
+        "No hardware needed: the four seed devices simulated on a virtual bus with a polling "
+        "master, sniffed live");
+    add_live_options(*cmd, args->live);
+    cmd->callback([args, &exit_code] { exit_code = run_demo(*args); });
+}
+
+}  // namespace rtuscope::cli
