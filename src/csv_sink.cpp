@@ -18,32 +18,11 @@ class CsvSink final : public RecordSink {
 
     void record(const Record& r) override {
         const bool framed = r.kind != Kind::noise;
+        const RecordFlags flags = record_flags(r);
         std::string ids;
+        for (const std::string& id : flags.ids) ids += (ids.empty() ? "" : " ") + id;
         std::string texts;
-        auto add = [&](std::string_view id, const std::string& text) {
-            const std::string listed = " " + ids + " ";
-            if (listed.find(" " + std::string(id) + " ") == std::string::npos) {
-                ids += (ids.empty() ? "" : " ") + std::string(id);
-            }
-            texts += (texts.empty() ? "" : "; ") + text;
-        };
-        for (const Note& note : r.notes) add(note.id, note.text);
-        // The register values' anomalies too, so that filtering this CSV by flag finds a
-        // value out of range without the values CSV; unlisted registers are only counted.
-        std::size_t unlisted = 0;
-        for (const DecodedValue& v : r.values) {
-            for (const Note& note : v.notes) {
-                if (std::string_view(note.id) == note_id::value_unlisted) {
-                    ++unlisted;
-                } else {
-                    add(note.id, fmt::format("{}: {}", v.name, note.text));
-                }
-            }
-        }
-        if (unlisted > 0) {
-            add(note_id::value_unlisted, fmt::format("{} register{} not in the profile", unlisted,
-                                                     unlisted == 1 ? "" : "s"));
-        }
+        for (const std::string& text : flags.texts) texts += (texts.empty() ? "" : "; ") + text;
         std::string line = fmt::format("{},{},", r.number, seconds_text(r.frame.start));
         if (framed && !r.frame.bytes.empty()) line += fmt::format("{}", r.frame.slave());
         line += ',';

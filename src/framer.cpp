@@ -419,14 +419,20 @@ bool Framer::emit_if_truncated(std::size_t at, std::size_t n) {
 void Framer::emit_chunk_as_frame(const Chunk& chunk) {
     Frame frame;
     frame.bytes = chunk.bytes;
+    const Nanos duration = static_cast<Nanos>(chunk.bytes.size()) * char_time_;
     frame.end = chunk.time;
     if (has_time(chunk.time)) {
-        frame.start = chunk.time - static_cast<Nanos>(chunk.bytes.size()) * char_time_;
+        if (options_.chunk_time_is_start) {
+            frame.start = chunk.time;
+            frame.end = chunk.time + duration;
+        } else {
+            frame.start = chunk.time - duration;
+        }
     }
     if (has_time(frame.start) && has_time(last_end_) && frame.start >= last_end_) {
         frame.silence_before = frame.start - last_end_;
     }
-    if (has_time(chunk.time)) last_end_ = chunk.time;
+    if (has_time(frame.end)) last_end_ = frame.end;
     frame.channel = chunk.channel;
     frame.source_line = chunk.source_line;
     frame.delimiter = Delimiter::line;

@@ -96,6 +96,21 @@ void note_over_device_limit(Record& record, const Profile& profile) {
     }
 }
 
+// Modbus reserves slave addresses 248-255; a frame there is a garbled address or a device
+// that ignores the rule, unless its profile says it uses that address (the PDU485 takes
+// up to 250, the ZB-UVI485 broadcasts on 255).
+void note_reserved_address(Record& record) {
+    const std::uint8_t slave = record.frame.slave();
+    if (slave <= 247) return;
+    const Profile* p = record.profile;
+    if (p != nullptr &&
+        (p->broadcast == slave || (slave >= p->first_address && slave <= p->last_address))) {
+        return;
+    }
+    record.notes.push_back(
+        {note_id::reserved_address, fmt::format("slave address {} is reserved (248-255)", slave)});
+}
+
 }  // namespace
 
 void decode_record(Record& record, const Bus* bus) {
@@ -130,6 +145,7 @@ void decode_record(Record& record, const Bus* bus) {
         if (own != nullptr) record.decoded.function_name = own->name;
     }
     for (const Note& note : record.decoded.notes) record.notes.push_back(note);
+    note_reserved_address(record);
     if (record.profile != nullptr && own == nullptr && role == Role::request) {
         note_over_device_limit(record, *record.profile);
     }
@@ -172,6 +188,7 @@ Status run_pipeline(ChunkSource& source, const PipelineOptions& options, RecordS
     FramerOptions framer_options;
     framer_options.line = session.line;
     framer_options.chunk_is_frame = session.source.chunk_is_frame;
+    framer_options.chunk_time_is_start = session.source.chunk_time_is_start;
     framer_options.rules = rules;
     framer_options.expectation = &transactions;
     Framer framer(framer_options, [&](Frame&& frame) { transactions.push(std::move(frame)); });

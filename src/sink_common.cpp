@@ -1,5 +1,7 @@
 #include <fmt/format.h>
 
+#include <algorithm>
+
 #include "rtuscope/sinks.hpp"
 
 namespace rtuscope {
@@ -48,6 +50,122 @@ std::string record_summary(const Record& record) {
         text += d.summary;
     }
     return text;
+}
+
+RecordFlags record_flags(const Record& record) {
+    RecordFlags flags;
+    auto add = [&](std::string_view id, std::string text) {
+        if (std::find(flags.ids.begin(), flags.ids.end(), id) == flags.ids.end()) {
+            flags.ids.emplace_back(id);
+        }
+        flags.texts.push_back(std::move(text));
+    };
+    for (const Note& note : record.notes) add(note.id, note.text);
+    // The register values' anomalies too, so that filtering by flag finds a value out of
+    // range without the values CSV; unlisted registers are only counted.
+    std::size_t unlisted = 0;
+    for (const DecodedValue& v : record.values) {
+        for (const Note& note : v.notes) {
+            if (std::string_view(note.id) == note_id::value_unlisted) {
+                ++unlisted;
+            } else {
+                add(note.id, fmt::format("{}: {}", v.name, note.text));
+            }
+        }
+    }
+    if (unlisted > 0) {
+        add(note_id::value_unlisted,
+            fmt::format("{} register{} not in the profile", unlisted, unlisted == 1 ? "" : "s"));
+    }
+    return flags;
+}
+
+namespace {
+
+// The length of the well-formed UTF-8 sequence `text` starts with (RFC 3629: no overlong
+// forms, no surrogates, nothing above U+10FFFF), or 0 when it starts with none.
+std::size_t utf8_sequence_length(std::string_view text) {
+    auto byte = [&](std::size_t i) { return static_cast<unsigned char>(text[i]); };
+    const unsigned lead = byte(0);
+    std::size_t n = 0;
+    unsigned low = 0x80;
+    unsigned high = 0xBF;
+    if (lead >= 0xC2 && lead <= 0xDF) {
+        n = 2;
+    } else if (lead >= 0xE0 && lead <= 0xEF) {
+        n = 3;
+        if (lead == 0xE0) low = 0xA0;
+        if (lead == 0xED) high = 0x9F;
+    } else if (lead >= 0xF0 && lead <= 0xF4) {
+        n = 4;
+        if (lead == 0xF0) low = 0x90;
+        if (lead == 0xF4) high = 0x8F;
+    } else {
+        return 0;
+    }
+    if (text.size() < n) return 0;
+    if (byte(1) < low || byte(1) > high) return 0;
+    for (std::size_t i = 2; i < n; ++i) {
+        if (byte(i) < 0x80 || byte(i) > 0xBF) return 0;
+    }
+    return n;
+}
+
+// JSON must be UTF-8, but file names and device names may be in any encoding: every byte
+// that does not belong to a well-formed sequence becomes U+FFFD before it is
+// escaped.
+std::string utf8_clean(std::string_view text) {
+    std::string out;
+    for (std::size_t i = 0; i < text.size();) {
+        if (static_cast<unsigned char>(text[i]) < 0x80) {
+            out += text[i++];
+            continue;
+        }
+        const std::size_t n = utf8_sequence_length(text.substr(i));
+        if (n == 0) {
+            out += "\xEF\xBF\xBD";
+            ++i;
+        } else {
+            out += text.substr(i, n);
+            i += n;
+        }
+    }
+    return out;
+}
+
+}  // namespace
+
+std::string json_string(std::string_view raw) {
+    const std::string text = utf8_clean(raw);
+    std::string out = "\"";
+    for (const char c : text) {
+        switch (c) {
+            case '"':
+                out += "\\\"";
+                break;
+            case '\\':
+                out += "\\\\";
+                break;
+            case '\n':
+                out += "\\n";
+                break;
+            case '\r':
+                out += "\\r";
+                break;
+            case '\t':
+                out += "\\t";
+                break;
+            default:
+                // Other control characters escaped; bytes >= 0x80 are UTF-8 and pass.
+                if (static_cast<unsigned char>(c) < 0x20) {
+                    out += fmt::format("\\u{:04x}", static_cast<unsigned>(c));
+                } else {
+                    out += c;
+                }
+        }
+    }
+    out += '"';
+    return out;
 }
 
 }  // namespace rtuscope

@@ -1,6 +1,6 @@
 // Stage 1, sources: opening inputs, guessing their format, and the buffered input the
-// readers share. The readers themselves live in capture_reader.cpp, raw_reader.cpp and
-// hex_reader.cpp.
+// readers share. The readers themselves live in capture_reader.cpp, raw_reader.cpp,
+// hex_reader.cpp and pcap_reader.cpp.
 #include "rtuscope/sources.hpp"
 
 #include <fcntl.h>
@@ -13,6 +13,7 @@
 #include <cstring>
 
 #include "readers.hpp"
+#include "rtuscope/pcap.hpp"
 
 namespace rtuscope {
 namespace detail {
@@ -171,6 +172,7 @@ Result<std::unique_ptr<ChunkSource>> make_source(std::unique_ptr<detail::InputBu
             return detail::make_hex_reader(std::move(in));
         case InputFormat::raw:
         case InputFormat::automatic:
+        case InputFormat::pcap:  // read through libpcap, never from an InputBuffer
             break;
     }
     return detail::make_raw_reader(std::move(in));
@@ -183,7 +185,8 @@ Result<InputFormat> parse_input_format(std::string_view name) {
     if (name == "capture") return InputFormat::capture;
     if (name == "raw") return InputFormat::raw;
     if (name == "hex") return InputFormat::hex;
-    return Error{fmt::format("unknown input format {} (expected auto, capture, raw or hex)",
+    if (name == "pcap") return InputFormat::pcap;
+    return Error{fmt::format("unknown input format {} (expected auto, capture, raw, hex or pcap)",
                              detail::quote_token(name))};
 }
 
@@ -197,11 +200,14 @@ const char* to_string(InputFormat format) {
             return "raw";
         case InputFormat::hex:
             return "hex";
+        case InputFormat::pcap:
+            return "pcap";
     }
     return "?";
 }
 
 InputFormat detect_input_format(std::string_view head) {
+    if (looks_like_pcap(head)) return InputFormat::pcap;
     if (head.starts_with(kUtf8Bom)) head.remove_prefix(kUtf8Bom.size());
     if (head.starts_with("# rtuscope capture")) return InputFormat::capture;
     for (const char ch : head) {
@@ -257,6 +263,9 @@ Result<std::unique_ptr<ChunkSource>> open_source(const std::string& path, InputF
         head.resize(n);
         format = detect_input_format(head);
     }
+    if (format == InputFormat::pcap) {
+        return pcap_source_from_stream(std::move(head), file, !is_stdin, path);
+    }
     auto in = std::make_unique<detail::InputBuffer>(std::move(head), file, !is_stdin, path);
     return make_source(std::move(in), format);
 }
@@ -266,6 +275,8 @@ Result<std::unique_ptr<ChunkSource>> source_from_memory(std::string content, std
     if (format == InputFormat::automatic) {
         format = detect_input_format(std::string_view(content).substr(0, kSniffBytes));
     }
+    if (format == InputFormat::pcap)
+        return pcap_source_from_memory(std::move(content), std::move(name));
     auto in =
         std::make_unique<detail::InputBuffer>(std::move(content), nullptr, false, std::move(name));
     return make_source(std::move(in), format);

@@ -108,10 +108,20 @@ void Transactions::push(Frame&& frame) {
                 record.latency = f.start - request.frame.end;
             }
             awaiting_.reset();
+            answered_ = Answered{f.slave(), static_cast<std::uint8_t>(f.function() & 0x7FU),
+                                 record.request_number, record.number};
+        } else if (answered_ && f.slave() == answered_->slave &&
+                   (f.function() & 0x7FU) == answered_->function) {
+            record.request_number = answered_->request_number;
+            record.notes.push_back(
+                {note_id::duplicate_answer,
+                 fmt::format("second answer to #{} (after #{}): two devices on address {}?",
+                             answered_->request_number, answered_->answer_number, f.slave())});
         } else if (!invalid) {
             record.notes.push_back({note_id::unsolicited, "answer with no request"});
         }
     } else if (is_request) {
+        answered_.reset();
         // One master, one transaction at a time: a new request ends the wait.
         give_up_on_request("no answer before the next request");
     }

@@ -175,6 +175,29 @@ TEST(Bus, RequestOverTheDevicesRegisterLimitIsNoted) {
     EXPECT_FALSE(has_note(r[1], note_id::over_device_limit));
 }
 
+TEST(Bus, ReservedAddressIsFlaggedUnlessTheProfileUsesIt) {
+    const Bytes to_250 = with_crc({0xFA, 0x03, 0x00, 0x06, 0x00, 0x01});
+    const Bytes to_255 = with_crc({0xFF, 0x04, 0x00, 0x15, 0x00, 0x12});
+    {
+        BusHarness standard_only;  // nothing on 250
+        const auto r = standard_only.run({Chunk{kNoTime, "", to_250, 0, {}}});
+        ASSERT_EQ(r.size(), 1U);
+        ASSERT_TRUE(has_note(r[0], note_id::reserved_address));
+        EXPECT_EQ(r[0].notes.back().text, "slave address 250 is reserved (248-255)");
+    }
+    BusHarness h;  // uv-test on 1 broadcasts on 255
+    Profile wide = uv_like();
+    wide.name = "wide";
+    wide.broadcast.reset();
+    wide.last_address = 250;
+    h.bus.add_profile(wide);
+    ASSERT_TRUE(h.bus.assign(250, "wide"));
+    const auto r = h.run({Chunk{kNoTime, "", to_250, 0, {}}, Chunk{kNoTime, "", to_255, 0, {}}});
+    ASSERT_EQ(r.size(), 2U);
+    EXPECT_FALSE(has_note(r[0], note_id::reserved_address));
+    EXPECT_FALSE(has_note(r[1], note_id::reserved_address));
+}
+
 TEST(Bus, DeviceOption) {
     Bus bus;
     bus.add_profile(uv_like());

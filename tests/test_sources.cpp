@@ -103,10 +103,11 @@ TEST(SourcesInputFormat, ParsesNamesAndRejectsOthers) {
     EXPECT_EQ(*parse_input_format("raw"), InputFormat::raw);
     EXPECT_EQ(*parse_input_format("hex"), InputFormat::hex);
     EXPECT_EQ(*parse_input_format("auto"), InputFormat::automatic);
-    auto bad = parse_input_format("pcap");
+    EXPECT_EQ(*parse_input_format("pcap"), InputFormat::pcap);
+    auto bad = parse_input_format("pcapx");
     ASSERT_FALSE(bad.ok());
     EXPECT_EQ(bad.error().to_string(),
-              "unknown input format \"pcap\" (expected auto, capture, raw or hex)");
+              "unknown input format \"pcapx\" (expected auto, capture, raw, hex or pcap)");
     EXPECT_STREQ(to_string(InputFormat::capture), "capture");
     EXPECT_STREQ(to_string(InputFormat::raw), "raw");
     EXPECT_STREQ(to_string(InputFormat::hex), "hex");

@@ -32,6 +32,25 @@ TEST(Transactions, PairsAnswerAndMeasuresTurnaround) {
     EXPECT_NEAR(static_cast<double>(r[1].latency) / 1e6, 19.5, 0.01);
 }
 
+TEST(Transactions, SecondAnswerToOneRequestPointsAtADuplicateAddress) {
+    Line line;
+    line.silence(10).send_per_byte(kRead).silence(5).send_per_byte(kReadAnswer);
+    line.silence(5).send_per_byte(kReadAnswer).silence(50).send_per_byte(kRead);
+    line.silence(5).send_per_byte(kReadAnswer);
+    Harness h;
+    const auto& r = h.run(line.chunks());
+    ASSERT_EQ(r.size(), 5U);
+    EXPECT_EQ(r[1].request_number, 1U);
+    EXPECT_FALSE(has_note(r[1], note_id::duplicate_answer));
+    EXPECT_EQ(r[2].kind, Kind::response);
+    ASSERT_TRUE(has_note(r[2], note_id::duplicate_answer));
+    EXPECT_EQ(r[2].notes.back().text, "second answer to #1 (after #2): two devices on address 1?");
+    EXPECT_FALSE(has_note(r[2], note_id::unsolicited));
+    // A new request starts afresh: its one answer is no duplicate.
+    EXPECT_EQ(r[4].request_number, 4U);
+    EXPECT_FALSE(has_note(r[4], note_id::duplicate_answer));
+}
+
 TEST(Transactions, ExceptionPairsWithItsRequest) {
     const Bytes exception = with_crc({0x01, 0x83, 0x02});
     Line line;

@@ -20,6 +20,12 @@ namespace rtuscope {
 class Bus {
   public:
     Bus();  // knows the bundled profiles
+    // The address map points into the profile list: moving keeps those pointers valid
+    // (a deque's elements stay where they are), copying would not.
+    Bus(const Bus&) = delete;
+    Bus& operator=(const Bus&) = delete;
+    Bus(Bus&&) noexcept = default;
+    Bus& operator=(Bus&&) noexcept = default;
 
     // A user's profile; one with the name of a bundled profile replaces it.
     void add_profile(Profile profile);

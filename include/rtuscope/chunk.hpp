@@ -32,6 +32,7 @@ struct SourceInfo {
     std::optional<LineSettings> line;  // from the capture header, if it has one
     bool timed = false;                // chunks carry times
     bool chunk_is_frame = false;       // hex logs: each line is exactly one frame
+    bool chunk_time_is_start = false;  // pcap: a chunk's time is its first byte's start
 };
 
 class ChunkSource {

@@ -23,7 +23,8 @@ namespace rtuscope {
 
 struct FramerOptions {
     LineSettings line;
-    bool chunk_is_frame = false;  // hex logs: each chunk is exactly one frame
+    bool chunk_is_frame = false;       // hex logs: each chunk is exactly one frame
+    bool chunk_time_is_start = false;  // with chunk_is_frame: the time is the frame's start
     const ProtocolRules* rules = &standard_rules();
     const AnswerExpectation* expectation = nullptr;  // usually the pairing stage
     // Two-port taps (one port per direction): chunks tagged with this channel carry the

@@ -26,10 +26,12 @@ inline constexpr const char* split_by_length = "frame.split_by_length";  // not 
 inline constexpr const char* unknown_length = "frame.unknown_length";  // length found by CRC search
 inline constexpr const char* noise = "frame.noise";
 inline constexpr const char* char_error = "frame.char_error";  // parity/framing error (tty)
+inline constexpr const char* reserved_address = "frame.reserved_address";  // slave 248-255
 // transactions
 inline constexpr const char* no_answer = "txn.no_answer";
 inline constexpr const char* unsolicited = "txn.unsolicited";  // answer with no request
 inline constexpr const char* unexpected_exception = "txn.unexpected_exception";
+inline constexpr const char* duplicate_answer = "txn.duplicate_answer";  // 2 answers, 1 request
 // PDU decoding
 inline constexpr const char* byte_count_mismatch = "pdu.byte_count_mismatch";
 inline constexpr const char* malformed = "pdu.malformed";

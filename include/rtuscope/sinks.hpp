@@ -22,6 +22,9 @@ std::unique_ptr<RecordSink> make_text_sink(std::FILE* out, TextOptions options);
 std::unique_ptr<RecordSink> make_csv_sink(std::FILE* out);
 // One row per register value (records without a profile give none).
 std::unique_ptr<RecordSink> make_values_csv_sink(std::FILE* out);
+// One JSON object per record (JSON Lines): the per-frame CSV's fields, the decoded
+// fields and the register values; schema in README.md.
+std::unique_ptr<RecordSink> make_jsonl_sink(std::FILE* out);
 
 // Shared by the sinks: "01 03 00 00" (spaced) or "01030000".
 std::string hex_bytes(std::span<const std::uint8_t> bytes, bool spaced);
@@ -29,6 +32,16 @@ std::string hex_bytes(std::span<const std::uint8_t> bytes, bool spaced);
 std::string seconds_text(Nanos time);
 // An RFC 4180 field: quoted when it holds a comma, a quote or a line break.
 std::string csv_field(std::string_view text);
+// A JSON string literal, quotes included (RFC 8259 escapes); bytes that are not UTF-8
+// become U+FFFD, as JSON must be UTF-8.
+std::string json_string(std::string_view text);
+// What the `flags` and `notes` columns hold: the record's note ids (each once) and
+// texts, then its register values' anomalies (`name: text`), unlisted registers counted.
+struct RecordFlags {
+    std::vector<std::string> ids;
+    std::vector<std::string> texts;
+};
+RecordFlags record_flags(const Record& record);
 // The one-line description of a record, as in the CSV `summary` column.
 std::string record_summary(const Record& record);
 

@@ -1,7 +1,8 @@
 // Stage 1, sources: readers for the input formats rtuscope decodes offline.
 //   capture: the native text capture format v1 (DESIGN.md), timed chunks;
 //   raw:     bytes only, no timing (cat /dev/ttyUSB0 > dump.bin);
-//   hex:     one frame per line in hex, as manuals and serial-terminal logs show them.
+//   hex:     one frame per line in hex, as manuals and serial-terminal logs show them;
+//   pcap:    pcap and pcapng files, one frame per packet (pcap.hpp).
 #pragma once
 
 #include <memory>
@@ -13,12 +14,13 @@
 
 namespace rtuscope {
 
-enum class InputFormat : std::uint8_t { automatic, capture, raw, hex };
+enum class InputFormat : std::uint8_t { automatic, capture, raw, hex, pcap };
 
-Result<InputFormat> parse_input_format(std::string_view name);  // "capture", "raw", "hex"
+// "auto", "capture", "raw", "hex", "pcap"
+Result<InputFormat> parse_input_format(std::string_view name);
 const char* to_string(InputFormat format);
 
-// Guesses the format from the first bytes of the input.
+// Guesses the format from the first bytes of the input (pcap/pcapng by magic number).
 InputFormat detect_input_format(std::string_view head);
 
 // Opens a file ("-" for standard input) and returns a source for it. Errors name the

@@ -74,6 +74,15 @@ class Transactions : public AnswerExpectation {
     std::optional<std::size_t> awaiting_;  // index into held_ of the awaited request
     AwaitedAnswer awaited_;
     Nanos awaited_end_ = kNoTime;
+    // The request answered last, until the next request: a second answer to it means
+    // two devices share an address.
+    struct Answered {
+        std::uint8_t slave = 0;
+        std::uint8_t function = 0;
+        std::uint64_t request_number = 0;
+        std::uint64_t answer_number = 0;
+    };
+    std::optional<Answered> answered_;
 };
 
 }  // namespace rtuscope

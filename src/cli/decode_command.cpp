@@ -33,16 +33,32 @@ int run_decode(const DecodeArgs& args) {
     if (!source) return print_error(source.error()), 1;
 
     const Status status = run_pipeline(**source, decoding->options, *decoding->sink);
-    if (args.output.csv || args.output.values_csv) {
+    if (args.output.csv || args.output.values_csv || args.output.jsonl || args.output.stats) {
         for (const std::string& remark : (*source)->remarks()) {
             fmt::print(stderr, "rtuscope: note: {}: {}\n", args.file, remark);
         }
     }
     if (!status) return print_error(status.error()), 1;
+    if (Status pcap = pcap_status(*decoding); !pcap) return print_error(pcap.error()), 1;
     return 0;
 }
 
 }  // namespace
+
+void add_stats_command(CLI::App& app, int& exit_code) {
+    auto args = std::make_shared<DecodeArgs>();
+    args->output.stats = true;
+    CLI::App* cmd =
+        app.add_subcommand("stats",
+                           "Bus statistics of a capture: per slave and function code, turnaround "
+                           "percentiles, utilisation, poll cycles");
+    cmd->add_option("FILE", args->file, "Input file ('-' for standard input)")->required();
+    cmd->add_option("--input-format", args->input_format,
+                    "capture, raw, hex or pcap; default: detected from the content")
+        ->check(CLI::IsMember({"auto", "capture", "raw", "hex", "pcap"}));
+    add_stats_options(*cmd, args->output);
+    cmd->callback([args, &exit_code] { exit_code = run_decode(*args); });
+}
 
 void add_decode_command(CLI::App& app, int& exit_code) {
     auto args = std::make_shared<DecodeArgs>();
@@ -50,9 +66,9 @@ void add_decode_command(CLI::App& app, int& exit_code) {
         "decode", "Decode a saved capture, raw dump or hex log into annotated text or CSV");
     cmd->add_option("FILE", args->file, "Input file ('-' for standard input)")->required();
     cmd->add_option("--input-format", args->input_format,
-                    "capture (native text format), raw (bytes, no timing) or hex (one frame "
-                    "per line); default: detected from the content")
-        ->check(CLI::IsMember({"auto", "capture", "raw", "hex"}));
+                    "capture (native text format), raw (bytes, no timing), hex (one frame "
+                    "per line) or pcap (pcap/pcapng); default: detected from the content")
+        ->check(CLI::IsMember({"auto", "capture", "raw", "hex", "pcap"}));
     add_output_options(*cmd, args->output);
     cmd->callback([args, &exit_code] { exit_code = run_decode(*args); });
 }

@@ -17,6 +17,7 @@ int main(int argc, char** argv) {
     app.require_subcommand(1);
     int exit_code = 0;
     rtuscope::cli::add_decode_command(app, exit_code);
+    rtuscope::cli::add_stats_command(app, exit_code);
     rtuscope::cli::add_sniff_command(app, exit_code);
     rtuscope::cli::add_demo_command(app, exit_code);
     rtuscope::cli::add_profiles_command(app, exit_code);

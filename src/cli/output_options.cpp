@@ -4,24 +4,65 @@
 
 #include <cmath>
 #include <cstdlib>
+#include <tuple>
 
 #include "errors.hpp"
+#include "rtuscope/filter.hpp"
 #include "rtuscope/sinks.hpp"
+#include "rtuscope/stats.hpp"
 
 namespace rtuscope::cli {
 
-void add_output_options(CLI::App& cmd, OutputArgs& args) {
-    auto* csv = cmd.add_flag("--csv", args.csv, "Print the per-frame CSV instead of text");
-    cmd.add_flag("--values-csv", args.values_csv,
-                 "Print one CSV row per register value (needs --device or --bus) instead of "
-                 "text")
-        ->excludes(csv);
+namespace {
+
+void add_filter_options(CLI::App& cmd, OutputArgs& args) {
+    cmd.add_option("--slave", args.slaves, "Only these slave addresses, e.g. 1,3,10-20")
+        ->type_name("LIST")
+        ->group("Filters");
+    cmd.add_option("--function", args.functions,
+                   "Only these function codes (exceptions count as their function), e.g. 3,0x10")
+        ->type_name("LIST")
+        ->group("Filters");
+    cmd.add_option("--kind", args.kinds,
+                   "Only these kinds: request, response, exception, broadcast, unknown, "
+                   "invalid, noise, flagged (any record with a note)")
+        ->type_name("LIST")
+        ->group("Filters");
+    cmd.add_option("--from", args.from,
+                   "Only frames starting at or after this time: seconds as in the CSV time "
+                   "column, or +S after the first frame")
+        ->type_name("TIME")
+        ->group("Filters");
+    cmd.add_option("--to", args.to, "Only frames starting at or before this time (as --from)")
+        ->type_name("TIME")
+        ->group("Filters");
+}
+
+void add_line_options(CLI::App& cmd, OutputArgs& args) {
     cmd.add_option("--baud", args.baud, "Line speed; overrides the capture header (default 9600)");
     cmd.add_option("--format", args.format,
                    "Data bits, parity, stop bits: 8N1, 8E1, 8O1, 8N2, 7E1...; overrides the "
                    "capture header (default 8N1)");
     cmd.add_option("--timeout", args.timeout_s,
                    "Seconds after which a request counts as unanswered (default 1)");
+}
+
+}  // namespace
+
+void add_output_options(CLI::App& cmd, OutputArgs& args) {
+    auto* csv = cmd.add_flag("--csv", args.csv, "Print the per-frame CSV instead of text");
+    auto* values = cmd.add_flag("--values-csv", args.values_csv,
+                                "Print one CSV row per register value (needs --device or --bus) "
+                                "instead of text");
+    values->excludes(csv);
+    cmd.add_flag("--jsonl", args.jsonl,
+                 "Print one JSON object per record (JSON Lines; schema in the README)")
+        ->excludes(csv)
+        ->excludes(values);
+    cmd.add_option("--pcap", args.pcap_file,
+                   "Also write every frame to FILE as pcap (Wireshark: Modbus RTU, link type 252)")
+        ->type_name("FILE");
+    add_line_options(cmd, args);
     cmd.add_option("-t,--time", args.time_format,
                    "Time column: a = absolute (default), r = relative to the first frame, "
                    "d = delta to the previous frame")
@@ -29,6 +70,15 @@ void add_output_options(CLI::App& cmd, OutputArgs& args) {
     cmd.add_flag("--hex", args.hex, "Show the raw bytes of every frame (text output)");
     cmd.add_flag("--no-color", args.no_color,
                  "No colour (also off when NO_COLOR is set or stdout is not a terminal)");
+    add_filter_options(cmd, args);
+    add_bus_options(cmd, args.bus);
+}
+
+void add_stats_options(CLI::App& cmd, OutputArgs& args) {
+    auto* csv = cmd.add_flag("--csv", args.csv, "Print the statistics as CSV");
+    cmd.add_flag("--jsonl", args.jsonl, "Print the statistics as JSON Lines")->excludes(csv);
+    add_line_options(cmd, args);
+    add_filter_options(cmd, args);
     add_bus_options(cmd, args.bus);
 }
 
@@ -64,8 +114,40 @@ std::optional<Decoding> prepare_decoding(const OutputArgs& args, int& exit_code)
                     2);
     }
 
-    if (args.csv) {
+    RecordFilter filter;
+    if (!args.slaves.empty()) {
+        auto r = parse_ranges(args.slaves, 255);
+        if (!r) return fail(Error{"--slave: " + r.error().message}, 2);
+        filter.slaves = *r;
+    }
+    if (!args.functions.empty()) {
+        auto r = parse_ranges(args.functions, 127);
+        if (!r) return fail(Error{"--function: " + r.error().message}, 2);
+        filter.functions = *r;
+    }
+    if (!args.kinds.empty()) {
+        auto r = parse_kinds(args.kinds);
+        if (!r) return fail(Error{"--kind: " + r.error().message}, 2);
+        filter.kinds = *r;
+    }
+    for (const auto& [text, bound, relative, name] :
+         {std::tuple(&args.from, &filter.from, &filter.from_relative, "--from"),
+          std::tuple(&args.to, &filter.to, &filter.to_relative, "--to")}) {
+        if (text->empty()) continue;
+        auto r = parse_time_bound(*text);
+        if (!r) return fail(Error{std::string(name) + ": " + r.error().message}, 2);
+        *bound = r->first;
+        *relative = r->second;
+    }
+
+    if (args.stats) {
+        d.sink = make_stats_sink(stdout, args.csv     ? StatsFormat::csv
+                                         : args.jsonl ? StatsFormat::jsonl
+                                                      : StatsFormat::text);
+    } else if (args.csv) {
         d.sink = make_csv_sink(stdout);
+    } else if (args.jsonl) {
+        d.sink = make_jsonl_sink(stdout);
     } else if (args.values_csv) {
         d.sink = make_values_csv_sink(stdout);
     } else {
@@ -77,7 +159,22 @@ std::optional<Decoding> prepare_decoding(const OutputArgs& args, int& exit_code)
                                                      : TimeFormat::absolute;
         d.sink = make_text_sink(stdout, text);
     }
+    std::vector<std::unique_ptr<RecordSink>> sinks;
+    sinks.push_back(std::move(d.sink));
+    if (args.closing_stats) sinks.push_back(make_stats_sink(stderr, StatsFormat::text));
+    if (!args.pcap_file.empty()) {
+        auto pcap = make_pcap_sink(args.pcap_file);
+        if (!pcap) return fail(pcap.error(), 1);
+        d.pcap = pcap->get();
+        sinks.push_back(std::move(*pcap));
+    }
+    d.sink = sinks.size() == 1 ? std::move(sinks.front()) : make_tee_sink(std::move(sinks));
+    if (!filter.empty()) d.sink = make_filter_sink(std::move(filter), std::move(d.sink));
     return d;
+}
+
+Status pcap_status(const Decoding& decoding) {
+    return decoding.pcap != nullptr ? decoding.pcap->status() : ok_status();
 }
 
 LineSettings live_line(const Decoding& decoding) {

@@ -9,6 +9,7 @@
 #include <string>
 
 #include "bus_options.hpp"
+#include "rtuscope/pcap.hpp"
 #include "rtuscope/pipeline.hpp"
 
 namespace rtuscope::cli {
@@ -18,6 +19,15 @@ struct OutputArgs {
     std::string format;
     bool csv = false;
     bool values_csv = false;
+    bool jsonl = false;
+    bool stats = false;          // the stats command: statistics in the chosen format
+    bool closing_stats = false;  // sniff/demo: the statistics on stderr at the end
+    std::string pcap_file;
+    std::string slaves;
+    std::string functions;
+    std::string kinds;
+    std::string from;
+    std::string to;
     double timeout_s = 1.0;
     std::string time_format = "a";
     bool hex = false;
@@ -26,6 +36,8 @@ struct OutputArgs {
 };
 
 void add_output_options(CLI::App& cmd, OutputArgs& args);
+// The statistics command's subset: formats, line, timeout, filters, bus map.
+void add_stats_options(CLI::App& cmd, OutputArgs& args);
 
 // Everything the options decide, checked; errors are printed here. nullopt then, with
 // `exit_code` set (2 for bad options, 1 for bad profile or bus files).
@@ -33,8 +45,12 @@ struct Decoding {
     std::unique_ptr<Bus> bus;
     PipelineOptions options;
     std::unique_ptr<RecordSink> sink;
+    PcapSink* pcap = nullptr;  // inside `sink`, when --pcap was given
 };
 std::optional<Decoding> prepare_decoding(const OutputArgs& args, int& exit_code);
+
+// After the run: a --pcap file that could not be written is an error (printed here).
+Status pcap_status(const Decoding& decoding);
 
 // The line settings for a live port: --baud/--format, else the bus map's, else 9600 8N1.
 LineSettings live_line(const Decoding& decoding);

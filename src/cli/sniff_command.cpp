@@ -82,6 +82,7 @@ int run_live(const LiveArgs& args, Decoding& decoding, TtyOptions tty) {
                totals.exceptions, totals.crc_bad + totals.invalid + totals.noise_runs,
                totals.crc_bad, totals.invalid, totals.noise_bytes, totals.unanswered);
     if (!status) return print_error(status.error()), 1;
+    if (Status pcap = pcap_status(decoding); !pcap) return print_error(pcap.error()), 1;
     return 0;
 }
 
@@ -90,7 +91,8 @@ struct SniffArgs {
     LiveArgs live;
 };
 
-int run_sniff(const SniffArgs& args) {
+int run_sniff(SniffArgs args) {
+    args.live.output.closing_stats = true;
     int exit_code = 0;
     auto decoding = prepare_decoding(args.live.output, exit_code);
     if (!decoding) return exit_code;
@@ -107,6 +109,7 @@ struct DemoArgs {
 // The four seed devices at 1-4, a master polling them, all on a paced virtual bus; the
 // sniffer listens on a port of its own exactly as on a real adapter.
 int run_demo(DemoArgs args) {
+    args.live.output.closing_stats = true;
     args.live.output.bus.devices.insert(
         args.live.output.bus.devices.begin(),
         {"1=zb-uvi485", "2=sensor-analyser", "3=pdu485", "4=zyi-relay"});

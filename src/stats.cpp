@@ -1,0 +1,415 @@
+// Bus statistics: counting records per slave/function and per poll, and printing the
+// figures as text, CSV or JSON lines (see stats.hpp).
+#include "rtuscope/stats.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <string_view>
+
+#include "rtuscope/decoder.hpp"
+#include "rtuscope/sinks.hpp"
+
+namespace rtuscope {
+namespace {
+
+bool has_note(const Record& record, const char* id) {
+    return std::any_of(record.notes.begin(), record.notes.end(),
+                       [&](const Note& n) { return std::string_view(n.id) == id; });
+}
+
+void merge_counts(FunctionStats& into, const FunctionStats& from) {
+    into.requests += from.requests;
+    into.answers += from.answers;
+    into.exceptions += from.exceptions;
+    for (const auto& [code, n] : from.exception_codes) into.exception_codes[code] += n;
+    into.crc_errors += from.crc_errors;
+    into.no_answer += from.no_answer;
+    into.broadcasts += from.broadcasts;
+    into.unsolicited += from.unsolicited;
+    into.turnarounds.insert(into.turnarounds.end(), from.turnarounds.begin(),
+                            from.turnarounds.end());
+}
+
+// One row of figures, whatever the output format; nullopt where not known.
+struct RowFigures {
+    std::optional<BusStats::Key> key;  // nullopt: every slave and function
+    const FunctionStats* counts = nullptr;
+    std::optional<Nanos> p50, p95, p99, max;
+    std::optional<Nanos> cycle_median, cycle_max;
+};
+
+RowFigures figures(std::optional<BusStats::Key> key, const FunctionStats& s,
+                   const PollStats* poll) {
+    RowFigures f{key, &s, {}, {}, {}, {}, {}, {}};
+    f.p50 = nearest_rank(s.turnarounds, 50);
+    f.p95 = nearest_rank(s.turnarounds, 95);
+    f.p99 = nearest_rank(s.turnarounds, 99);
+    f.max = nearest_rank(s.turnarounds, 100);
+    if (poll != nullptr) {
+        f.cycle_median = nearest_rank(poll->cycles, 50);
+        f.cycle_max = nearest_rank(poll->cycles, 100);
+    }
+    return f;
+}
+
+std::vector<RowFigures> all_rows(const BusStats& stats) {
+    std::vector<RowFigures> rows;
+    for (const auto& [key, s] : stats.functions()) {
+        const auto* poll = stats.main_poll(key);
+        rows.push_back(figures(key, s, poll != nullptr ? &poll->second : nullptr));
+    }
+    // The bus-wide row's cycle is that of the bus's most frequent poll, as in the bus block.
+    const auto* poll = stats.main_poll(std::nullopt);
+    rows.push_back(figures(std::nullopt, stats.all(), poll != nullptr ? &poll->second : nullptr));
+    return rows;
+}
+
+std::string ms(std::optional<Nanos> t, int decimals, std::string_view unknown) {
+    if (!t) return std::string(unknown);
+    return fmt::format("{:.{}f}", static_cast<double>(*t) / 1e6, decimals);
+}
+
+// "0x0000 x2" for the reads, whose first 4 data bytes are address and quantity; the
+// bytes in hex for anything else.
+std::string poll_data_text(const PollKey& key) {
+    if (key.function >= 1 && key.function <= 4 && key.size == 4) {
+        return fmt::format("0x{:02X}{:02X} x{}", key.data[0], key.data[1],
+                           key.data[2] * 256U + key.data[3]);
+    }
+    return hex_bytes(std::span(key.data.data(), key.size), true);
+}
+
+// Columns padded to their widest cell; `right` marks the numeric ones.
+std::string table(const std::vector<std::vector<std::string>>& rows,
+                  const std::vector<bool>& right) {
+    std::vector<std::size_t> widths(right.size(), 0);
+    for (const auto& row : rows) {
+        for (std::size_t i = 0; i < row.size(); ++i) widths[i] = std::max(widths[i], row[i].size());
+    }
+    std::string out;
+    for (const auto& row : rows) {
+        std::string line = "  ";
+        for (std::size_t i = 0; i < row.size(); ++i) {
+            if (i > 0) line += "  ";
+            line += right[i] ? fmt::format("{:>{}}", row[i], widths[i])
+                             : fmt::format("{:<{}}", row[i], widths[i]);
+        }
+        while (!line.empty() && line.back() == ' ') line.pop_back();
+        out += line + '\n';
+    }
+    return out;
+}
+
+std::string render_text(const BusStats& stats, const std::vector<std::string>& remarks) {
+    const SessionInfo& session = stats.session();
+    const BusFigures& bus = stats.bus();
+    std::string out;
+    if (!session.source.name.empty()) {
+        out += fmt::format("{}: {} input, {} {}\n", session.source.name, session.source.format,
+                           session.line.baud, session.line.format());
+    }
+    if (!session.devices.empty()) out += fmt::format("devices: {}\n", session.devices);
+    out += fmt::format(
+        "bus: {} frames, {} bytes; {} invalid, {} unknown; {} noise bytes in {} runs\n", bus.frames,
+        bus.bytes, bus.invalid, bus.unknown, bus.noise_bytes, bus.noise_runs);
+    if (stats.timed()) {
+        out += fmt::format("duration: {:.3f} s, utilisation {:.1f} % ({} bytes of {:.3f} ms)\n",
+                           static_cast<double>(*stats.duration()) / 1e9, *stats.utilisation(),
+                           bus.bytes, static_cast<double>(session.line.char_time()) / 1e6);
+        const auto* poll = stats.main_poll(std::nullopt);
+        if (poll != nullptr && !poll->second.cycles.empty()) {
+            out += fmt::format(
+                "poll cycle: {} ms median, {} ms max (slave {} function {:02X} {}, "
+                "{} requests)\n",
+                ms(nearest_rank(poll->second.cycles, 50), 2, "-"),
+                ms(nearest_rank(poll->second.cycles, 100), 2, "-"), poll->first.slave,
+                poll->first.function, poll_data_text(poll->first), poll->second.requests);
+        } else {
+            out += "poll cycle: no request repeated\n";
+        }
+    } else {
+        out += "no timing: turnaround, utilisation and cycle unknown\n";
+    }
+    for (const std::string& remark : remarks) out += fmt::format("note: {}\n", remark);
+
+    // Short headers keep the table within a terminal's width for typical buses; the
+    // legend says what they mean.
+    out +=
+        "\nper slave and function (times in ms; p50..max: turnaround over the n measured "
+        "answers;\ncycle: of the slave's most frequent poll for that function):\n";
+    std::vector<std::vector<std::string>> rows{{"slave", "fc", "function", "req", "ans", "exc",
+                                                "crc", "no ans", "bcast", "unsol", "n", "p50",
+                                                "p95", "p99", "max", "cycle", "cyc max"}};
+    for (const RowFigures& f : all_rows(stats)) {
+        const FunctionStats& c = *f.counts;
+        rows.push_back({f.key ? fmt::format("{}", f.key->first) : "all",
+                        f.key ? fmt::format("{:02X}", f.key->second) : "",
+                        f.key ? function_name(f.key->second) : "", fmt::format("{}", c.requests),
+                        fmt::format("{}", c.answers), fmt::format("{}", c.exceptions),
+                        fmt::format("{}", c.crc_errors), fmt::format("{}", c.no_answer),
+                        fmt::format("{}", c.broadcasts), fmt::format("{}", c.unsolicited),
+                        fmt::format("{}", c.turnarounds.size()), ms(f.p50, 2, "-"),
+                        ms(f.p95, 2, "-"), ms(f.p99, 2, "-"), ms(f.max, 2, "-"),
+                        ms(f.cycle_median, 2, "-"), ms(f.cycle_max, 2, "-")});
+    }
+    out += table(rows, {true, true, false, true, true, true, true, true, true, true, true, true,
+                        true, true, true, true, true});
+
+    std::vector<std::vector<std::string>> exceptions{{"slave", "fc", "code", "exception", "count"}};
+    for (const auto& [key, s] : stats.functions()) {
+        for (const auto& [code, n] : s.exception_codes) {
+            const char* name = exception_name(code);
+            exceptions.push_back({fmt::format("{}", key.first), fmt::format("{:02X}", key.second),
+                                  fmt::format("{:02X}", code), name != nullptr ? name : "undefined",
+                                  fmt::format("{}", n)});
+        }
+    }
+    if (exceptions.size() > 1) {
+        out += "\nexceptions:\n";
+        out += table(exceptions, {true, true, true, false, true});
+    }
+
+    // Only polls that repeat have a cycle; a bus with varying writes would otherwise
+    // list every one of them.
+    if (stats.timed()) {
+        std::vector<std::vector<std::string>> polls{
+            {"slave", "fc", "data", "requests", "cycle median", "cycle max"}};
+        for (const auto& [key, p] : stats.polls()) {
+            if (p.cycles.empty()) continue;
+            polls.push_back({fmt::format("{}", key.slave), fmt::format("{:02X}", key.function),
+                             poll_data_text(key), fmt::format("{}", p.requests),
+                             ms(nearest_rank(p.cycles, 50), 2, "-"),
+                             ms(nearest_rank(p.cycles, 100), 2, "-")});
+        }
+        if (polls.size() > 1) {
+            out += "\npolls (times in ms):\n";
+            out += table(polls, {true, true, false, true, true, true});
+        }
+    }
+    return out;
+}
+
+std::string render_csv(const BusStats& stats) {
+    std::string out =
+        "slave,function,requests,answers,exceptions,crc_errors,no_answer,broadcasts,"
+        "unsolicited,turnarounds,turnaround_p50_ms,turnaround_p95_ms,turnaround_p99_ms,"
+        "turnaround_max_ms,cycle_median_ms,cycle_max_ms\n";
+    for (const RowFigures& f : all_rows(stats)) {
+        const FunctionStats& c = *f.counts;
+        const std::string slave = f.key ? fmt::format("{}", f.key->first) : "all";
+        const std::string function = f.key ? fmt::format("{}", f.key->second) : "all";
+        out += fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n", slave, function,
+                           c.requests, c.answers, c.exceptions, c.crc_errors, c.no_answer,
+                           c.broadcasts, c.unsolicited, c.turnarounds.size(), ms(f.p50, 3, ""),
+                           ms(f.p95, 3, ""), ms(f.p99, 3, ""), ms(f.max, 3, ""),
+                           ms(f.cycle_median, 3, ""), ms(f.cycle_max, 3, ""));
+    }
+    return out;
+}
+
+// The members of a row's JSON object, without the braces.
+std::string json_row(const RowFigures& f) {
+    const FunctionStats& c = *f.counts;
+    std::string codes;
+    for (const auto& [code, n] : c.exception_codes) {
+        codes += fmt::format("{}\"{}\":{}", codes.empty() ? "" : ",", code, n);
+    }
+    std::string out;
+    if (f.key) out += fmt::format("\"slave\":{},\"function\":{},", f.key->first, f.key->second);
+    out += fmt::format(
+        "\"requests\":{},\"answers\":{},\"exceptions\":{},\"exception_codes\":{{{}}},"
+        "\"crc_errors\":{},\"no_answer\":{},\"broadcasts\":{},\"unsolicited\":{},"
+        "\"turnarounds\":{},\"turnaround_p50_ms\":{},\"turnaround_p95_ms\":{},"
+        "\"turnaround_p99_ms\":{},\"turnaround_max_ms\":{},\"cycle_median_ms\":{},"
+        "\"cycle_max_ms\":{}",
+        c.requests, c.answers, c.exceptions, codes, c.crc_errors, c.no_answer, c.broadcasts,
+        c.unsolicited, c.turnarounds.size(), ms(f.p50, 3, "null"), ms(f.p95, 3, "null"),
+        ms(f.p99, 3, "null"), ms(f.max, 3, "null"), ms(f.cycle_median, 3, "null"),
+        ms(f.cycle_max, 3, "null"));
+    return out;
+}
+
+std::string render_jsonl(const BusStats& stats) {
+    const SessionInfo& session = stats.session();
+    const BusFigures& bus = stats.bus();
+    const std::vector<RowFigures> rows = all_rows(stats);
+    std::string poll = "null";
+    if (const auto* p = stats.main_poll(std::nullopt); p != nullptr) {
+        poll = fmt::format(
+            "{{\"slave\":{},\"function\":{},\"data\":{},\"requests\":{},\"cycle_median_ms\":{},"
+            "\"cycle_max_ms\":{}}}",
+            p->first.slave, p->first.function,
+            json_string(hex_bytes(std::span(p->first.data.data(), p->first.size), false)),
+            p->second.requests, ms(nearest_rank(p->second.cycles, 50), 3, "null"),
+            ms(nearest_rank(p->second.cycles, 100), 3, "null"));
+    }
+    const std::optional<double> utilisation = stats.utilisation();
+    std::string out = fmt::format(
+        "{{\"bus\":{{\"source\":{},\"input_format\":{},\"line\":{},\"devices\":{},"
+        "\"timed\":{},\"duration_s\":{},\"frames\":{},\"bytes\":{},\"noise_runs\":{},"
+        "\"noise_bytes\":{},\"invalid\":{},\"unknown\":{},\"char_time_ms\":{:.6f},"
+        "\"utilisation_pct\":{},\"poll\":{},\"all\":{{{}}}}}}}\n",
+        json_string(session.source.name), json_string(session.source.format),
+        json_string(fmt::format("{} {}", session.line.baud, session.line.format())),
+        json_string(session.devices), stats.timed() ? "true" : "false",
+        stats.duration() ? fmt::format("{:.6f}", static_cast<double>(*stats.duration()) / 1e9)
+                         : "null",
+        bus.frames, bus.bytes, bus.noise_runs, bus.noise_bytes, bus.invalid, bus.unknown,
+        static_cast<double>(session.line.char_time()) / 1e6,
+        utilisation ? fmt::format("{:.3f}", *utilisation) : "null", poll, json_row(rows.back()));
+    for (std::size_t i = 0; i + 1 < rows.size(); ++i) {
+        out += fmt::format("{{{}}}\n", json_row(rows[i]));
+    }
+    return out;
+}
+
+class StatsSink final : public RecordSink {
+  public:
+    StatsSink(std::FILE* out, StatsFormat format) : out_(out), format_(format) {}
+
+    void begin(const SessionInfo& session) override { stats_.begin(session); }
+    void record(const Record& record) override { stats_.add(record); }
+    void end(const Totals& /*totals*/, const std::vector<std::string>& remarks) override {
+        stats_.finish();
+        const std::string text = render_stats(stats_, format_, remarks);
+        std::fwrite(text.data(), 1, text.size(), out_);
+        std::fflush(out_);
+    }
+
+  private:
+    std::FILE* out_;
+    StatsFormat format_;
+    BusStats stats_;
+};
+
+}  // namespace
+
+std::optional<Nanos> nearest_rank(std::span<const Nanos> sorted, unsigned percent) {
+    if (sorted.empty()) return std::nullopt;
+    // Integer ceil(percent * n / 100): no floating-point rounding at exact ranks.
+    std::size_t rank = (static_cast<std::size_t>(percent) * sorted.size() + 99) / 100;
+    rank = std::clamp<std::size_t>(rank, 1, sorted.size());
+    return sorted[rank - 1];
+}
+
+void BusStats::add(const Record& record) {
+    const Frame& f = record.frame;
+    bus_.bytes += f.bytes.size();
+    if (has_time(f.start) && (!has_time(bus_.first_start) || f.start < bus_.first_start)) {
+        bus_.first_start = f.start;
+    }
+    if (has_time(f.end) && (!has_time(bus_.last_end) || f.end > bus_.last_end)) {
+        bus_.last_end = f.end;
+    }
+    if (record.kind == Kind::noise) {
+        ++bus_.noise_runs;
+        bus_.noise_bytes += f.bytes.size();
+        return;
+    }
+    ++bus_.frames;
+    if (record.kind == Kind::invalid) ++bus_.invalid;
+    if (record.kind == Kind::unknown) ++bus_.unknown;
+
+    // A frame cut short before its function code has no row to go to.
+    if (f.bytes.size() < 2) return;
+    const Key key{f.slave(), static_cast<std::uint8_t>(f.function() & 0x7FU)};
+    const bool crc_error = f.crc.status == CrcStatus::bad || f.crc.status == CrcStatus::swapped;
+    const bool counted = crc_error || record.kind == Kind::request ||
+                         record.kind == Kind::response || record.kind == Kind::exception ||
+                         record.kind == Kind::broadcast;
+    // Rows only for what has a column: an unknown frame alone would be an empty row.
+    if (!counted) return;
+    FunctionStats& s = functions_[key];
+    if (crc_error) ++s.crc_errors;
+    switch (record.kind) {
+        case Kind::request: {
+            ++s.requests;
+            if (has_note(record, note_id::no_answer)) ++s.no_answer;
+            PollKey poll{key.first, key.second, {}, 0};
+            const std::size_t data = f.bytes.size() >= 4 ? f.bytes.size() - 4 : 0;
+            poll.size = static_cast<std::uint8_t>(std::min<std::size_t>(data, 4));
+            std::copy_n(f.bytes.begin() + 2, poll.size, poll.data.begin());
+            PollStats& p = polls_[poll];
+            ++p.requests;
+            if (has_time(f.start)) {
+                if (has_time(p.last_start)) p.cycles.push_back(f.start - p.last_start);
+                p.last_start = f.start;
+            }
+            break;
+        }
+        case Kind::response:
+        case Kind::exception:
+            if (record.kind == Kind::response) {
+                ++s.answers;
+            } else {
+                ++s.exceptions;
+                if (f.bytes.size() >= 3) ++s.exception_codes[f.bytes[2]];
+            }
+            if (has_note(record, note_id::unsolicited)) ++s.unsolicited;
+            if (has_time(record.latency)) s.turnarounds.push_back(record.latency);
+            break;
+        case Kind::broadcast:
+            ++s.broadcasts;
+            break;
+        default:
+            break;
+    }
+}
+
+void BusStats::finish() {
+    all_ = {};
+    for (auto& [key, s] : functions_) {
+        std::sort(s.turnarounds.begin(), s.turnarounds.end());
+        merge_counts(all_, s);
+    }
+    std::sort(all_.turnarounds.begin(), all_.turnarounds.end());
+    for (auto& [key, p] : polls_) std::sort(p.cycles.begin(), p.cycles.end());
+}
+
+bool BusStats::timed() const {
+    return duration().has_value();
+}
+
+std::optional<Nanos> BusStats::duration() const {
+    if (!has_time(bus_.first_start) || !has_time(bus_.last_end)) return std::nullopt;
+    if (bus_.last_end <= bus_.first_start) return std::nullopt;
+    return bus_.last_end - bus_.first_start;
+}
+
+std::optional<double> BusStats::utilisation() const {
+    const std::optional<Nanos> d = duration();
+    if (!d) return std::nullopt;
+    return 100.0 * static_cast<double>(bus_.bytes) *
+           static_cast<double>(session_.line.char_time()) / static_cast<double>(*d);
+}
+
+const std::pair<const PollKey, PollStats>* BusStats::main_poll(std::optional<Key> key) const {
+    const std::pair<const PollKey, PollStats>* best = nullptr;
+    for (const auto& entry : polls_) {
+        if (key && (entry.first.slave != key->first || entry.first.function != key->second)) {
+            continue;
+        }
+        if (best == nullptr || entry.second.requests > best->second.requests) best = &entry;
+    }
+    return best;
+}
+
+std::string render_stats(const BusStats& stats, StatsFormat format,
+                         const std::vector<std::string>& remarks) {
+    switch (format) {
+        case StatsFormat::csv:
+            return render_csv(stats);
+        case StatsFormat::jsonl:
+            return render_jsonl(stats);
+        case StatsFormat::text:
+            break;
+    }
+    return render_text(stats, remarks);
+}
+
+std::unique_ptr<RecordSink> make_stats_sink(std::FILE* out, StatsFormat format) {
+    return std::make_unique<StatsSink>(out, format);
+}
+
+}  // namespace rtuscope

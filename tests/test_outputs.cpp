@@ -1,0 +1,141 @@
+// JSON Lines output and record filters, on the seed manual's frames and hand-made records.
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <string>
+
+#include "rtuscope/bus.hpp"
+#include "rtuscope/filter.hpp"
+#include "rtuscope/pipeline.hpp"
+#include "rtuscope/sinks.hpp"
+#include "rtuscope/sources.hpp"
+
+namespace rtuscope {
+namespace {
+
+// Runs the pipeline over `input` into a sink writing to a memory buffer.
+template <class MakeSink>
+std::string run_to_text(const std::string& input, const Bus* bus, MakeSink make_sink) {
+    char* buffer = nullptr;
+    std::size_t size = 0;
+    std::FILE* out = open_memstream(&buffer, &size);
+    {
+        auto source = source_from_memory(input, "mem", InputFormat::automatic);
+        EXPECT_TRUE(source);
+        PipelineOptions options;
+        options.bus = bus;
+        auto sink = make_sink(out);
+        EXPECT_TRUE(run_pipeline(**source, options, *sink));
+    }
+    std::fclose(out);
+    std::string text(buffer, size);
+    std::free(buffer);
+    return text;
+}
+
+const char* const kZbFrames =
+    "01 04 00 15 00 12 61 c3\n"  // set correction coefficient 1.8
+    "01 04 00 15 00 12 61 c3\n"  // its echo
+    "02 03 02 18 18 b6 4e\n"     // the manual's answer with a wrong CRC
+    "01 83 02 c0 f1\n";          // an exception from a device that never sends one
+
+TEST(Jsonl, OneObjectPerRecordWithDecodedFieldsAndValues) {
+    Bus bus;
+    ASSERT_TRUE(bus.assign(1, "zb-uvi485"));
+    const std::string text = run_to_text(kZbFrames, &bus, make_jsonl_sink);
+    std::vector<std::string> lines;
+    for (std::size_t at = 0; at < text.size();) {
+        const auto nl = text.find('\n', at);
+        lines.push_back(text.substr(at, nl - at));
+        at = nl + 1;
+    }
+    ASSERT_EQ(lines.size(), 4U);
+    EXPECT_EQ(lines[0],
+              R"({"frame":1,"time":null,"slave":1,"function":4,"kind":"request","crc":"ok",)"
+              R"("request":null,"latency_ms":null,"summary":"Set correction coefficient 0x0015 = )"
+              R"(0x0012","hex":"01040015001261C3","flags":[],"notes":[],"channel":null,)"
+              R"("function_name":"Set correction coefficient","exception":null,)"
+              R"("profile":"zb-uvi485","values":[{"address":21,"name":"correction_coefficient",)"
+              R"("value":1.8,"unit":"","raw":"0x0012","flags":[],"notes":[]}]})");
+    EXPECT_NE(lines[1].find(R"("kind":"response","crc":"ok","request":1,)"), std::string::npos);
+    // Slave 2 has no profile: no values, and the bad CRC is in the flags.
+    EXPECT_NE(lines[2].find(R"("kind":"invalid","crc":"bad",)"), std::string::npos);
+    EXPECT_NE(lines[2].find(R"("flags":["frame.crc_mismatch"],)"), std::string::npos) << lines[2];
+    EXPECT_NE(lines[2].find(R"("profile":null,"values":[]})"), std::string::npos);
+    EXPECT_NE(lines[3].find(R"("exception":{"code":2,"name":"Illegal Data Address"})"),
+              std::string::npos)
+        << lines[3];
+    EXPECT_NE(lines[3].find("txn.unexpected_exception"), std::string::npos);
+}
+
+TEST(Jsonl, StringsAreEscaped) {
+    EXPECT_EQ(json_string("a\"b\\c\nd\x01"), R"("a\"b\\c\nd\u0001")");
+    EXPECT_EQ(json_string("µW/cm²"), "\"µW/cm²\"");
+}
+
+TEST(Filter, ParsesListsKindsAndTimes) {
+    const auto ranges = parse_ranges("1,3,10-20,0x10", 255);
+    ASSERT_TRUE(ranges);
+    EXPECT_EQ(*ranges, (RecordFilter::Ranges{{1, 1}, {3, 3}, {10, 20}, {16, 16}}));
+    EXPECT_FALSE(parse_ranges("300", 255));
+    EXPECT_FALSE(parse_ranges("5-3", 255));
+    EXPECT_FALSE(parse_ranges("1,,2", 255));
+    EXPECT_FALSE(parse_ranges("", 255));
+    EXPECT_EQ(parse_kinds("responses").error().message,
+              "unknown kind \"responses\" (request, response, exception, broadcast, unknown, "
+              "invalid, noise, flagged)");
+    const auto relative = parse_time_bound("+2.5");
+    ASSERT_TRUE(relative);
+    EXPECT_EQ(relative->first, 2'500'000'000);
+    EXPECT_TRUE(relative->second);
+    EXPECT_FALSE(parse_time_bound("yesterday"));
+}
+
+TEST(Filter, KeepsOnlyMatchingRecords) {
+    const std::string frames = std::string(kZbFrames) + "03 03 00 00 00 01 85 e8\n";
+    auto decode_with = [&](RecordFilter filter) {
+        return run_to_text(frames, nullptr, [&](std::FILE* out) {
+            return make_filter_sink(filter, make_csv_sink(out));
+        });
+    };
+    auto rows = [](const std::string& csv) {
+        std::vector<std::string> numbers;
+        for (std::size_t at = csv.find('\n') + 1; at < csv.size();) {
+            numbers.push_back(csv.substr(at, csv.find(',', at) - at));
+            at = csv.find('\n', at) + 1;
+        }
+        return numbers;
+    };
+    RecordFilter by_slave;
+    by_slave.slaves = {{2, 3}};
+    EXPECT_EQ(rows(decode_with(by_slave)), (std::vector<std::string>{"3", "5"}));
+    RecordFilter by_function;
+    by_function.functions = {{3, 3}};  // the exception 0x83 counts as function 3
+    EXPECT_EQ(rows(decode_with(by_function)), (std::vector<std::string>{"3", "4", "5"}));
+    RecordFilter problems;
+    problems.kinds = {"exception", "invalid"};
+    EXPECT_EQ(rows(decode_with(problems)), (std::vector<std::string>{"3", "4"}));
+    RecordFilter untimed;
+    untimed.from = 0;  // hex logs have no times: nothing can be in a time range
+    EXPECT_TRUE(rows(decode_with(untimed)).empty());
+}
+
+TEST(Filter, TimeRangeRelativeToTheFirstFrame) {
+    const std::string capture =
+        "# rtuscope capture v1\n# serial 9600 8N1\n"
+        "10.000 01 03 00 00 00 01 84 0A\n"
+        "11.000 01 03 00 00 00 01 84 0A\n"
+        "12.000 01 03 00 00 00 01 84 0A\n";
+    RecordFilter middle;
+    middle.from = 900'000'000;
+    middle.from_relative = true;
+    middle.to = 11'500'000'000;  // absolute, in the capture's timebase
+    const std::string csv = run_to_text(capture, nullptr, [&](std::FILE* out) {
+        return make_filter_sink(middle, make_csv_sink(out));
+    });
+    EXPECT_EQ(csv.substr(csv.find('\n') + 1, 2), "2,");
+    EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 2);
+}
+
+}  // namespace
+}  // namespace rtuscope

@@ -1,0 +1,475 @@
+// Bus statistics: counts per slave/function, nearest-rank percentiles, poll cycles,
+// utilisation on a timed capture, untimed input, and the CSV and JSONL outputs.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "rtuscope/sources.hpp"
+#include "rtuscope/sinks.hpp"
+#include "rtuscope/stats.hpp"
+#include "support.hpp"
+
+namespace rtuscope {
+namespace {
+
+using test::Bytes;
+using test::kMs;
+using test::with_crc;
+
+Record make_record(Kind kind, Bytes bytes, Nanos start = kNoTime, Nanos latency = kNoTime) {
+    Record r;
+    r.kind = kind;
+    r.frame.bytes = std::move(bytes);
+    r.frame.cls = kind == Kind::noise     ? RecordClass::noise
+                  : kind == Kind::invalid ? RecordClass::invalid
+                                          : RecordClass::frame;
+    r.frame.crc = kind == Kind::noise ? CrcCheck{} : check_crc(r.frame.bytes);
+    r.frame.start = start;
+    if (has_time(start)) {
+        r.frame.end = start + LineSettings{}.char_time() * static_cast<Nanos>(r.frame.bytes.size());
+    }
+    r.latency = latency;
+    return r;
+}
+
+Record with_note(Record r, const char* id) {
+    r.notes.push_back({id, "test"});
+    return r;
+}
+
+// Runs the whole pipeline on an in-memory input and returns the finished statistics.
+BusStats stats_of(std::string content, InputFormat format) {
+    auto source = source_from_memory(std::move(content), "mem", format);
+    EXPECT_TRUE(source) << source.error().to_string();
+    BusStats stats;
+    class Sink final : public RecordSink {
+      public:
+        explicit Sink(BusStats& s) : stats_(s) {}
+        void begin(const SessionInfo& session) override { stats_.begin(session); }
+        void record(const Record& r) override { stats_.add(r); }
+        void end(const Totals&, const std::vector<std::string>&) override { stats_.finish(); }
+
+      private:
+        BusStats& stats_;
+    } sink(stats);
+    EXPECT_TRUE(run_pipeline(**source, {}, sink));
+    return stats;
+}
+
+std::vector<std::string> lines_of(const std::string& text) {
+    std::vector<std::string> lines;
+    std::size_t from = 0;
+    while (from < text.size()) {
+        const std::size_t nl = text.find('\n', from);
+        lines.push_back(text.substr(from, nl - from));
+        if (nl == std::string::npos) break;
+        from = nl + 1;
+    }
+    return lines;
+}
+
+// A strict little JSON checker (RFC 8259 grammar, no semantic checks), enough to prove
+// that every JSONL line is one well-formed object.
+class JsonChecker {
+  public:
+    explicit JsonChecker(std::string_view text) : s_(text) {}
+    bool object_only() {
+        ws();
+        if (peek() != '{') return false;
+        if (!value()) return false;
+        ws();
+        return i_ == s_.size();
+    }
+
+  private:
+    [[nodiscard]] char peek() const { return i_ < s_.size() ? s_[i_] : '\0'; }
+    void ws() {
+        while (i_ < s_.size() && (s_[i_] == ' ' || s_[i_] == '\t' || s_[i_] == '\n')) ++i_;
+    }
+    bool literal(std::string_view word) {
+        if (s_.substr(i_, word.size()) != word) return false;
+        i_ += word.size();
+        return true;
+    }
+    bool string() {
+        if (peek() != '"') return false;
+        for (++i_; i_ < s_.size(); ++i_) {
+            const auto c = static_cast<unsigned char>(s_[i_]);
+            if (c == '"') {
+                ++i_;
+                return true;
+            }
+            if (c < 0x20) return false;
+            if (c == '\\') {
+                ++i_;
+                if (i_ >= s_.size()) return false;
+                const char e = s_[i_];
+                if (e == 'u') {
+                    for (int k = 0; k < 4; ++k) {
+                        ++i_;
+                        if (i_ >= s_.size() || !std::isxdigit(static_cast<unsigned char>(s_[i_])))
+                            return false;
+                    }
+                } else if (std::string_view("\"\\/bfnrt").find(e) == std::string_view::npos) {
+                    return false;
+                }
+            }
+        }
+        return false;
+    }
+    bool digits() {
+        const std::size_t from = i_;
+        while (std::isdigit(static_cast<unsigned char>(peek()))) ++i_;
+        return i_ > from;
+    }
+    bool number() {
+        if (peek() == '-') ++i_;
+        if (peek() == '0') {
+            ++i_;
+        } else if (!digits()) {
+            return false;
+        }
+        if (peek() == '.') {
+            ++i_;
+            if (!digits()) return false;
+        }
+        if (peek() == 'e' || peek() == 'E') {
+            ++i_;
+            if (peek() == '+' || peek() == '-') ++i_;
+            if (!digits()) return false;
+        }
+        return true;
+    }
+    bool value() {
+        ws();
+        bool ok = false;
+        switch (peek()) {
+            case '{':
+                ok = members('}', true);
+                break;
+            case '[':
+                ok = members(']', false);
+                break;
+            case '"':
+                ok = string();
+                break;
+            case 't':
+                ok = literal("true");
+                break;
+            case 'f':
+                ok = literal("false");
+                break;
+            case 'n':
+                ok = literal("null");
+                break;
+            default:
+                ok = number();
+        }
+        ws();
+        return ok;
+    }
+    bool members(char close, bool keyed) {
+        ++i_;
+        ws();
+        if (peek() == close) {
+            ++i_;
+            return true;
+        }
+        while (true) {
+            ws();
+            if (keyed) {
+                if (!string()) return false;
+                ws();
+                if (peek() != ':') return false;
+                ++i_;
+            }
+            if (!value()) return false;
+            if (peek() == ',') {
+                ++i_;
+                continue;
+            }
+            if (peek() != close) return false;
+            ++i_;
+            return true;
+        }
+    }
+
+    std::string_view s_;
+    std::size_t i_ = 0;
+};
+
+const Bytes kRead = with_crc({0x01, 0x03, 0x00, 0x00, 0x00, 0x02});
+const Bytes kAnswer = with_crc({0x01, 0x03, 0x04, 0x00, 0x01, 0x00, 0x02});
+
+// ---------------------------------------------------------------------------------------
+
+TEST(StatsPercentile, NearestRankOf1To100) {
+    std::vector<Nanos> v;
+    for (Nanos i = 1; i <= 100; ++i) v.push_back(i);
+    EXPECT_EQ(nearest_rank(v, 50), 50);
+    EXPECT_EQ(nearest_rank(v, 95), 95);
+    EXPECT_EQ(nearest_rank(v, 99), 99);
+    EXPECT_EQ(nearest_rank(v, 100), 100);
+    EXPECT_EQ(nearest_rank(v, 0), 1);
+}
+
+TEST(StatsPercentile, SmallSetsTakeTheNextRankUp) {
+    EXPECT_FALSE(nearest_rank({}, 50).has_value());
+    const std::vector<Nanos> one{7};
+    EXPECT_EQ(nearest_rank(one, 50), 7);
+    EXPECT_EQ(nearest_rank(one, 99), 7);
+    // ceil(0.5 * 4) = 2nd, ceil(0.95 * 4) = 4th: never an interpolated 25.
+    const std::vector<Nanos> four{10, 20, 30, 40};
+    EXPECT_EQ(nearest_rank(four, 50), 20);
+    EXPECT_EQ(nearest_rank(four, 95), 40);
+    const std::vector<Nanos> ten{1, 2, 3, 4, 5, 6, 7, 8, 9, 10};
+    EXPECT_EQ(nearest_rank(ten, 95), 10);
+    EXPECT_EQ(nearest_rank(ten, 50), 5);
+    // The rank rounds up, never to the nearest: ceil(0.41 * 10) = 5, ceil(0.4 * 3) = 2.
+    EXPECT_EQ(nearest_rank(ten, 41), 5);
+    const std::vector<Nanos> three{1, 2, 3};
+    EXPECT_EQ(nearest_rank(three, 40), 2);
+}
+
+TEST(StatsCounts, PerSlaveAndFunction) {
+    BusStats s;
+    s.add(make_record(Kind::request, kRead));
+    s.add(make_record(Kind::response, kAnswer));
+    s.add(with_note(make_record(Kind::request, kRead), note_id::no_answer));
+    // Exceptions count under their function, per code.
+    s.add(make_record(Kind::request, kRead));
+    s.add(make_record(Kind::exception, with_crc({0x01, 0x83, 0x02})));
+    s.add(make_record(Kind::request, kRead));
+    s.add(make_record(Kind::exception, with_crc({0x01, 0x83, 0x02})));
+    s.add(with_note(make_record(Kind::exception, with_crc({0x01, 0x83, 0x04})),
+                    note_id::unsolicited));
+    // Another slave: a swapped CRC and a bad one, a broadcast, noise.
+    Bytes swapped = with_crc({0x02, 0x04, 0x00, 0x10, 0x00, 0x01});
+    std::swap(swapped[6], swapped[7]);
+    s.add(make_record(Kind::request, swapped));
+    s.add(make_record(Kind::invalid, {0x02, 0x04, 0x02, 0x00, 0x05, 0x00, 0x00}));
+    s.add(make_record(Kind::broadcast, with_crc({0x00, 0x06, 0x00, 0x01, 0x00, 0x03})));
+    s.add(make_record(Kind::noise, {0xFF, 0xFE, 0x00}));
+    s.add(make_record(Kind::invalid, {0x05}));  // cut short: no function code
+    s.finish();
+
+    const auto& rows = s.functions();
+    ASSERT_EQ(rows.size(), 3U);
+    const FunctionStats& a = rows.at({1, 3});
+    EXPECT_EQ(a.requests, 4U);
+    EXPECT_EQ(a.answers, 1U);
+    EXPECT_EQ(a.exceptions, 3U);
+    EXPECT_EQ(a.exception_codes.at(2), 2U);
+    EXPECT_EQ(a.exception_codes.at(4), 1U);
+    EXPECT_EQ(a.no_answer, 1U);
+    EXPECT_EQ(a.unsolicited, 1U);
+    EXPECT_EQ(a.crc_errors, 0U);
+    EXPECT_TRUE(a.turnarounds.empty());  // untimed
+
+    const FunctionStats& b = rows.at({2, 4});
+    EXPECT_EQ(b.requests, 1U);
+    EXPECT_EQ(b.crc_errors, 2U);
+    EXPECT_EQ(rows.at({0, 6}).broadcasts, 1U);
+
+    EXPECT_EQ(s.all().requests, 5U);
+    EXPECT_EQ(s.all().crc_errors, 2U);
+    EXPECT_EQ(s.all().exception_codes.at(2), 2U);
+    EXPECT_EQ(s.bus().frames, 12U);
+    EXPECT_EQ(s.bus().noise_runs, 1U);
+    EXPECT_EQ(s.bus().noise_bytes, 3U);
+    EXPECT_EQ(s.bus().invalid, 2U);
+    EXPECT_FALSE(s.timed());
+    EXPECT_FALSE(s.utilisation().has_value());
+}
+
+TEST(StatsTurnaround, PercentilesOfAnswers1To100Ms) {
+    std::vector<Nanos> latencies;
+    for (Nanos i = 1; i <= 100; ++i) latencies.push_back(i * kMs);
+    std::mt19937 shuffle(42);
+    std::shuffle(latencies.begin(), latencies.end(), shuffle);
+    BusStats s;
+    Nanos t = 0;
+    for (Nanos l : latencies) {
+        s.add(make_record(Kind::request, kRead, t));
+        s.add(make_record(Kind::response, kAnswer, t + 10 * kMs, l));
+        t += 200 * kMs;
+    }
+    s.add(make_record(Kind::response, kAnswer));  // unknown latency: not measured
+    s.finish();
+
+    const std::string csv = render_stats(s, StatsFormat::csv);
+    EXPECT_NE(
+        csv.find("\n1,3,100,101,0,0,0,0,0,100,50.000,95.000,99.000,100.000,200.000,200.000\n"),
+        std::string::npos)
+        << csv;
+    const FunctionStats& row = s.functions().at({1, 3});
+    EXPECT_EQ(row.turnarounds.size(), 100U);
+    EXPECT_EQ(nearest_rank(row.turnarounds, 50), 50 * kMs);
+    EXPECT_EQ(nearest_rank(row.turnarounds, 99), 99 * kMs);
+}
+
+TEST(StatsCycle, MedianAndMaxOfTheMostFrequentPoll) {
+    const Bytes other = with_crc({0x01, 0x03, 0x00, 0x06, 0x00, 0x02});
+    BusStats s;
+    // 0x0000 x2 at 0, 100, 200, 400 ms: cycles 100, 100, 200. 0x0006 x2 twice, 50 apart.
+    for (Nanos t : {0, 100, 200, 400}) s.add(make_record(Kind::request, kRead, t * kMs));
+    for (Nanos t : {500, 550}) s.add(make_record(Kind::request, other, t * kMs));
+    s.finish();
+
+    const auto* main = s.main_poll(std::nullopt);
+    ASSERT_NE(main, nullptr);
+    EXPECT_EQ(main->first.data, (std::array<std::uint8_t, 4>{0, 0, 0, 2}));
+    EXPECT_EQ(main->second.requests, 4U);
+    EXPECT_EQ(nearest_rank(main->second.cycles, 50), 100 * kMs);
+    EXPECT_EQ(nearest_rank(main->second.cycles, 100), 200 * kMs);
+    EXPECT_EQ(s.polls().size(), 2U);
+    EXPECT_EQ(s.polls().rbegin()->second.cycles, std::vector<Nanos>{50 * kMs});
+
+    const std::string text = render_stats(s, StatsFormat::text);
+    EXPECT_NE(text.find("poll cycle: 100.00 ms median, 200.00 ms max (slave 1 function 03 "
+                        "0x0000 x2, 4 requests)"),
+              std::string::npos)
+        << text;
+}
+
+// Two transactions on 9600 8N1, one chunk per frame (time = last byte): the first request
+// starts 8 characters before 0.010 s, the last answer ends at 0.130 s.
+const char* const kTimedCapture =
+    "# rtuscope capture v1\n"
+    "# serial 9600 8N1\n"
+    "0.010000 01 03 00 00 00 02 C4 0B\n"
+    "0.030000 01 03 04 00 01 00 02 2A 32\n"
+    "0.110000 01 03 00 00 00 02 C4 0B\n"
+    "0.130000 01 03 04 00 01 00 02 2A 32\n";
+
+TEST(StatsPipeline, UtilisationTurnaroundAndCycleOfATimedCapture) {
+    const BusStats s = stats_of(kTimedCapture, InputFormat::capture);
+    const Nanos c = LineSettings{}.char_time();
+    ASSERT_TRUE(s.timed());
+    EXPECT_EQ(*s.duration(), 130 * kMs - (10 * kMs - 8 * c));
+    EXPECT_EQ(s.bus().bytes, 34U);
+    ASSERT_TRUE(s.utilisation().has_value());
+    // 34 characters of 1.0417 ms in 128.33 ms
+    EXPECT_NEAR(*s.utilisation(), 27.597, 0.01);
+
+    const FunctionStats& row = s.functions().at({1, 3});
+    EXPECT_EQ(row.requests, 2U);
+    EXPECT_EQ(row.answers, 2U);
+    // End of request (0.010) to start of answer (0.030 - 9 characters)
+    ASSERT_EQ(row.turnarounds.size(), 2U);
+    EXPECT_EQ(row.turnarounds[0], 20 * kMs - 9 * c);
+    const auto* poll = s.main_poll(BusStats::Key{1, 3});
+    ASSERT_NE(poll, nullptr);
+    EXPECT_EQ(poll->second.cycles, std::vector<Nanos>{100 * kMs});
+
+    const std::string text = render_stats(s, StatsFormat::text);
+    EXPECT_NE(text.find("utilisation 27.6 %"), std::string::npos) << text;
+    EXPECT_EQ(text.find("no timing"), std::string::npos) << text;
+}
+
+TEST(StatsPipeline, UntimedInputSaysSoAndLeavesTimesUnknown) {
+    const BusStats s =
+        stats_of("01 03 00 00 00 02 C4 0B\n01 03 04 00 01 00 02 2A 32\n", InputFormat::hex);
+    EXPECT_FALSE(s.timed());
+    EXPECT_FALSE(s.duration().has_value());
+    EXPECT_EQ(s.functions().at({1, 3}).answers, 1U);
+
+    const std::string text = render_stats(s, StatsFormat::text);
+    EXPECT_NE(text.find("no timing: turnaround, utilisation and cycle unknown\n"),
+              std::string::npos)
+        << text;
+    EXPECT_EQ(text.find("utilisation 0"), std::string::npos) << text;
+    const std::string csv = render_stats(s, StatsFormat::csv);
+    EXPECT_NE(csv.find("\n1,3,1,1,0,0,0,0,0,0,,,,,,\n"), std::string::npos) << csv;
+    const std::string jsonl = render_stats(s, StatsFormat::jsonl);
+    EXPECT_NE(jsonl.find("\"timed\":false,\"duration_s\":null"), std::string::npos) << jsonl;
+    EXPECT_NE(jsonl.find("\"utilisation_pct\":null"), std::string::npos) << jsonl;
+    EXPECT_NE(jsonl.find("\"turnaround_p50_ms\":null"), std::string::npos) << jsonl;
+}
+
+TEST(StatsCsv, HeaderRowsAndTheAllRow) {
+    const BusStats s = stats_of(kTimedCapture, InputFormat::capture);
+    const std::vector<std::string> lines = lines_of(render_stats(s, StatsFormat::csv));
+    ASSERT_EQ(lines.size(), 3U);
+    EXPECT_EQ(lines[0],
+              "slave,function,requests,answers,exceptions,crc_errors,no_answer,broadcasts,"
+              "unsolicited,turnarounds,turnaround_p50_ms,turnaround_p95_ms,turnaround_p99_ms,"
+              "turnaround_max_ms,cycle_median_ms,cycle_max_ms");
+    // turnaround 20 ms - 9 characters = 10.625 ms
+    EXPECT_EQ(lines[1], "1,3,2,2,0,0,0,0,0,2,10.625,10.625,10.625,10.625,100.000,100.000");
+    EXPECT_EQ(lines[2], "all,all,2,2,0,0,0,0,0,2,10.625,10.625,10.625,10.625,100.000,100.000");
+}
+
+TEST(StatsJsonl, EveryLineIsOneObjectWithTheKeys) {
+    BusStats s = stats_of(kTimedCapture, InputFormat::capture);
+    s.add(make_record(Kind::exception, with_crc({0x02, 0x84, 0x02})));
+    s.finish();
+    const std::vector<std::string> lines = lines_of(render_stats(s, StatsFormat::jsonl));
+    ASSERT_EQ(lines.size(), 3U);
+    for (const std::string& line : lines) EXPECT_TRUE(JsonChecker(line).object_only()) << line;
+    EXPECT_EQ(lines[0].rfind("{\"bus\":{\"source\":\"mem\",", 0), 0U) << lines[0];
+    // The untimed exception adds a frame and 5 bytes but no time: 39 characters in 128.3 ms.
+    for (const char* key :
+         {"\"duration_s\":0.128333", "\"frames\":5", "\"bytes\":39", "\"utilisation_pct\":31.656",
+          "\"poll\":{\"slave\":1,", "\"all\":{\"requests\":2,\"answers\":2,\"exceptions\":1,"}) {
+        EXPECT_NE(lines[0].find(key), std::string::npos) << key << " in " << lines[0];
+    }
+    EXPECT_EQ(lines[1].rfind("{\"slave\":1,\"function\":3,\"requests\":2,", 0), 0U) << lines[1];
+    EXPECT_NE(lines[1].find("\"turnaround_max_ms\":10.625"), std::string::npos) << lines[1];
+    EXPECT_NE(lines[2].find("\"function\":4,"), std::string::npos) << lines[2];
+    EXPECT_NE(lines[2].find("\"exception_codes\":{\"2\":1}"), std::string::npos) << lines[2];
+    EXPECT_NE(lines[2].find("\"turnaround_p50_ms\":null"), std::string::npos) << lines[2];
+}
+
+TEST(StatsJsonl, CheckerRejectsBrokenJson) {
+    // The checker must be able to fail, or the test above proves nothing.
+    EXPECT_TRUE(JsonChecker(R"({"a":[1,-2.5e3,null,true],"b":{"c":"x\"y\u00e9"}})").object_only());
+    for (const char* bad : {"{\"a\":1", "{\"a\":01}", "{\"a\":.5}", "{\"a\":\"x\ty\"}", "{a:1}",
+                            "{\"a\":1,}", "[1]", "{\"a\":nul}", "{\"a\":1} x"}) {
+        EXPECT_FALSE(JsonChecker(bad).object_only()) << bad;
+    }
+}
+
+TEST(StatsJsonl, StringsAreEscaped) {
+    EXPECT_EQ(json_string("a\"b\\c\n\x01"), R"("a\"b\\c\n\u0001")");
+    EXPECT_EQ(json_string("µW/cm²"), "\"µW/cm²\"");
+    // Not UTF-8 (a Latin-1 file name, a cut sequence, a surrogate): U+FFFD per byte.
+    EXPECT_EQ(json_string("caf\xe9"), "\"caf\xEF\xBF\xBD\"");
+    EXPECT_EQ(json_string("\xc3"), "\"\xEF\xBF\xBD\"");
+    EXPECT_EQ(json_string("\xed\xa0\x80"), "\"\xEF\xBF\xBD\xEF\xBF\xBD\xEF\xBF\xBD\"");
+    BusStats s;
+    s.begin(SessionInfo{{"we\"ird\n.rtucap", "capture", {}, false, false}, {}, ""});
+    s.finish();
+    const std::vector<std::string> lines = lines_of(render_stats(s, StatsFormat::jsonl));
+    ASSERT_EQ(lines.size(), 1U);
+    EXPECT_TRUE(JsonChecker(lines[0]).object_only()) << lines[0];
+    EXPECT_NE(lines[0].find(R"("source":"we\"ird\n.rtucap")"), std::string::npos) << lines[0];
+}
+
+TEST(StatsRealData, FlowmeterGraphTool) {
+    auto source = open_source(RTUSCOPE_SOURCE_DIR "/captures/realdata/flowmeter_graph_tool.rtucap",
+                              InputFormat::automatic);
+    ASSERT_TRUE(source) << source.error().to_string();
+    std::FILE* out = std::tmpfile();
+    ASSERT_NE(out, nullptr);
+    auto sink = make_stats_sink(out, StatsFormat::csv);
+    ASSERT_TRUE(run_pipeline(**source, {}, *sink));
+    std::rewind(out);
+    std::string csv;
+    char buffer[4096];
+    for (std::size_t n; (n = std::fread(buffer, 1, sizeof buffer, out)) > 0;) csv.append(buffer, n);
+    std::fclose(out);
+
+    const std::vector<std::string> lines = lines_of(csv);
+    ASSERT_EQ(lines.size(), 3U) << csv;
+    // 18 frames, all slave 247: 9 read requests, each answered (test_pipeline's RealData).
+    EXPECT_EQ(lines[1].rfind("247,3,9,9,0,0,0,0,0,9,", 0), 0U) << lines[1];
+    EXPECT_EQ(lines[2].rfind("all,all,9,9,0,0,0,0,0,9,", 0), 0U) << lines[2];
+}
+
+}  // namespace
+}  // namespace rtuscope
