@@ -46,7 +46,7 @@ double in_ms(Nanos t) {
 
 }  // namespace
 
-Framer::Framer(FramerOptions options, Emit emit)
+Framer::Framer(const FramerOptions& options, Emit emit)
     : options_(options),
       emit_(std::move(emit)),
       char_time_(options.line.char_time()),
@@ -80,6 +80,12 @@ void Framer::push(const Chunk& chunk) {
         }
     }
     if (!seen_bytes_ || channel_changed) gap = kBoundary;
+    // A capture whose clock jumps back (a hand-edited file, a reset clock) cannot say how
+    // long the line was quiet: no gap to measure, no turnaround, and the frame says why.
+    if (has_time(chunk.time) && has_time(last_end_) && chunk.time < last_end_) {
+        time_jumps_.emplace_back(bytes_.size(), last_end_ - chunk.time);
+        gap = kBoundary;
+    }
 
     for (std::size_t i = 0; i < chunk.bytes.size(); ++i) {
         bytes_.push_back(chunk.bytes[i]);
@@ -332,6 +338,8 @@ void Framer::decide(bool at_end) {
         channel_.erase(channel_.begin(), channel_.begin() + drop);
         line_.erase(line_.begin(), line_.begin() + drop);
         char_error_.erase(char_error_.begin(), char_error_.begin() + drop);
+        std::erase_if(time_jumps_, [&](const auto& jump) { return jump.first < pos_; });
+        for (auto& jump : time_jumps_) jump.first -= pos_;
         scan_hint_ = scan_hint_ > pos_ ? scan_hint_ - pos_ : 0;
         pos_ = 0;
     }
@@ -474,6 +482,14 @@ void Framer::emit(std::size_t at, std::size_t length, RecordClass cls, Reading r
     }
     if (!hit.empty()) {
         frame.notes.push_back({note_id::char_error, "parity/framing error on byte " + hit});
+    }
+    for (const auto& [index, back] : time_jumps_) {
+        if (index >= at && index < at + length) {
+            frame.notes.push_back(
+                {note_id::time_backwards,
+                 fmt::format("the input's time goes back {:.3f} s here",
+                             static_cast<double>(back) / 1e9)});
+        }
     }
     pos_ = at + length;
     scan_hint_ = 0;

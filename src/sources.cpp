@@ -242,6 +242,17 @@ Result<std::unique_ptr<ChunkSource>> open_source(const std::string& path, InputF
             ::close(fd);
             return Error{"is a directory", path};
         }
+        if (S_ISCHR(st.st_mode) || S_ISBLK(st.st_mode)) {
+            ::close(fd);
+            return Error{"is a device, not a file (to listen to a serial port: rtuscope sniff)",
+                         path};
+        }
+        // An empty capture is almost always a recording that never started; saying so
+        // beats printing a summary of nothing.
+        if (S_ISREG(st.st_mode) && st.st_size == 0) {
+            ::close(fd);
+            return Error{"is empty: nothing to decode", path};
+        }
         file = ::fdopen(fd, "rb");
         if (file == nullptr) {
             const int err = errno;
@@ -261,6 +272,10 @@ Result<std::unique_ptr<ChunkSource>> open_source(const std::string& path, InputF
             return Error{fmt::format("cannot read: {}", std::strerror(err)), path};
         }
         head.resize(n);
+        if (head.empty()) {
+            if (!is_stdin) std::fclose(file);
+            return Error{"is empty: nothing to decode", path};
+        }
         format = detect_input_format(head);
     }
     if (format == InputFormat::pcap) {

@@ -621,11 +621,13 @@ TEST(SourcesOpen, DetectsAndReadsEachFormatFromFiles) {
     EXPECT_EQ(dr.chunks[0].bytes[0], 0x00);
     EXPECT_EQ(dr.chunks[1].bytes[903], 0x01);
 
+    // An empty file is a recording that never started: said so, in one line.
     const std::string empty = dir.write("empty", "");
-    auto e = open_source(empty, InputFormat::automatic);
-    ASSERT_TRUE(e.ok());
-    EXPECT_EQ((*e)->info().format, "raw");
-    EXPECT_TRUE(drain(**e).chunks.empty());
+    for (const InputFormat format : {InputFormat::automatic, InputFormat::capture}) {
+        auto e = open_source(empty, format);
+        ASSERT_FALSE(e.ok());
+        EXPECT_EQ(e.error().to_string(), empty + ": is empty: nothing to decode");
+    }
 }
 
 TEST(SourcesOpen, ForcedFormatOverridesDetection) {

@@ -37,7 +37,7 @@ class Framer {
   public:
     using Emit = std::function<void(Frame&&)>;
 
-    Framer(FramerOptions options, Emit emit);
+    Framer(const FramerOptions& options, Emit emit);
 
     // Adds a chunk; emits every record that the bytes so far decide.
     void push(const Chunk& chunk);
@@ -99,6 +99,9 @@ class Framer {
     std::vector<std::uint16_t> channel_;
     std::vector<int> line_;
     std::vector<bool> char_error_;  // the UART flagged this byte (parity/framing)
+    // Where the input's clock went backwards: the index of the first byte of the chunk
+    // whose time was earlier than the byte before it, and by how much. Rare, so sparse.
+    std::vector<std::pair<std::size_t, Nanos>> time_jumps_;
     std::size_t pos_ = 0;
     std::size_t scan_hint_ = 0;  // bytes before it are known to start no frame
     std::vector<std::string> channels_;

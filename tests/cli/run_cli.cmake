@@ -4,6 +4,7 @@
 #   COLOUR     YES: stdout has ANSI colour codes, NO: it has none (optional)
 #   PTY        run under `script` so that stdout is a terminal
 #   NO_COLOR   set NO_COLOR in the environment
+#   INPUT      a file for its standard input
 string(REPLACE "|" ";" args "${ARGS}")
 set(command ${RTUSCOPE} ${args})
 if(NO_COLOR)
@@ -15,7 +16,11 @@ if(PTY)
   list(JOIN command " " joined)
   set(command script -qec "${joined}" /dev/null)
 endif()
-execute_process(COMMAND ${command} OUTPUT_VARIABLE out ERROR_VARIABLE err RESULT_VARIABLE rc)
+if(DEFINED INPUT)
+  set(input INPUT_FILE ${INPUT})
+endif()
+execute_process(COMMAND ${command} ${input} OUTPUT_VARIABLE out ERROR_VARIABLE err
+  RESULT_VARIABLE rc)
 set(problems "")
 if(NOT rc EQUAL RC)
   string(APPEND problems "exit status ${rc}, expected ${RC}\n")
