@@ -415,7 +415,7 @@ void write_multiple_request(Decoder& d, bool bits) {
 
     const Bytes bytes = d.counted_part(*count, slice(d.data, 5));
     if (qty) {
-        const std::size_t need = bits ? (std::size_t{*qty} + 7) / 8 : 2U * *qty;
+        const std::size_t need = bits ? (std::size_t{*qty} + 7) / 8 : std::size_t{2} * *qty;
         if (*count != need) {
             d.note(note_id::byte_count_mismatch,
                    fmt::format("byte count {}, {} need {}", *count,
@@ -818,6 +818,7 @@ void read_file_request(Decoder& d) {
     }
     const std::vector<FileRecord> records = read_file_sub_requests(groups, &d.out.notes);
     std::vector<std::string> parts;
+    parts.reserve(records.size());
     for (const FileRecord& r : records) parts.push_back(file_record_text(r));
     d.out.summary = counted(records.size(), "sub-request", "sub-requests");
     if (!parts.empty()) d.out.summary += ": " + join(parts, ", ");
@@ -866,7 +867,9 @@ void read_file_response(Decoder& d) {
         const std::vector<std::uint16_t> values = words_of(slice(group, 1));
         std::string text = word_list(values);
         if (index < asked.size()) {
-            text = file_record_text(asked[index]) + (values.empty() ? "" : ": ") + text;
+            std::string described = file_record_text(asked[index]);
+            if (!values.empty()) described += ": ";
+            text = described.append(text);
             if (length != 1U + 2U * asked[index].length) {
                 d.note(note_id::byte_count_mismatch,
                        fmt::format("sub-response {}: length {}, {} asked need {}", index + 1,

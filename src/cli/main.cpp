@@ -3,13 +3,16 @@
 #include <fmt/format.h>
 
 #include <CLI/CLI.hpp>
+#include <cstdio>
 #include <exception>
 
 #include "decode_command.hpp"
 #include "profiles_command.hpp"
 #include "sniff_command.hpp"
 
-int main(int argc, char** argv) {
+namespace {
+
+int run(int argc, char** argv) {
     CLI::App app{
         "rtuscope: a passive Modbus RTU bus analyser. It frames, CRC-checks, pairs and "
         "decodes the traffic of an RS-485 line, and never transmits."};
@@ -25,9 +28,21 @@ int main(int argc, char** argv) {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {
         return app.exit(e);
-    } catch (const std::exception& e) {
-        fmt::print(stderr, "rtuscope: error: {}\n", e.what());
-        return 1;
     }
     return exit_code;
+}
+
+}  // namespace
+
+// Nothing may escape main: an exception anywhere (out of memory, a library's) ends with
+// one line on stderr and exit status 1, never with std::terminate's abort.
+int main(int argc, char** argv) {
+    try {
+        return run(argc, argv);
+    } catch (const std::exception& e) {
+        std::fprintf(stderr, "rtuscope: error: %s\n", e.what());
+    } catch (...) {
+        std::fprintf(stderr, "rtuscope: error: unexpected internal error\n");
+    }
+    return 1;
 }

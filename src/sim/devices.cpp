@@ -131,7 +131,7 @@ void SimDevice::fill() {
             // ch1 s1-s5, ch2 s1, ch12 s16: a mains voltage (the manual's 0x08A7), a current,
             // a negative temperature, a humidity, a pressure; the odd registers stay 0.
             const int ch1[] = {2215, 52, -125, 634, 1013};
-            for (int s = 0; s < 5; ++s) reg(static_cast<std::size_t>(s * 2)) = u16(ch1[s]);
+            for (int s = 0; s < 5; ++s) reg(static_cast<std::size_t>(s) * 2) = u16(ch1[s]);
             reg(0x0064) = u16(238);
             reg(0x046A) = u16(-40);
             break;
