@@ -285,6 +285,9 @@ bool date_time_at(std::string_view s, std::size_t i, Nanos& out) {
     if ((sep != '-' && sep != '/') || s[i + 7] != sep) return false;
     if (!digits_at(s, i + 5, 2, mo) || !digits_at(s, i + 8, 2, d)) return false;
     if (mo < 1 || mo > 12 || d < 1 || d > 31) return false;
+    // Nanoseconds since 1970 in 64 bits reach the years 1677-2262; a date outside is no
+    // timestamp this reader can keep (found by fuzzing: year 4565 overflowed).
+    if (y < 1900 || y > 2261) return false;
     const char between = s[i + 10];
     if (between != ' ' && between != 'T' && between != '_') return false;
     Nanos tod = 0;
