@@ -126,7 +126,11 @@ bool Framer::gap_before(std::size_t at) const {
 }
 
 std::size_t Framer::next_gap(std::size_t after) const {
-    for (std::size_t j = after + 1; j < bytes_.size(); ++j) {
+    // Only the next kMaxAdu bytes matter to the callers (a frame is never longer), and
+    // untimed input has no gaps at all: scanning the whole buffer made the resync over
+    // raw dumps quadratic in the buffer size.
+    const std::size_t limit = std::min(bytes_.size(), after + kMaxAdu + 1);
+    for (std::size_t j = after + 1; j < limit; ++j) {
         if (gap_before(j)) return j;
     }
     return bytes_.size();
@@ -486,9 +490,8 @@ void Framer::emit(std::size_t at, std::size_t length, RecordClass cls, Reading r
     for (const auto& [index, back] : time_jumps_) {
         if (index >= at && index < at + length) {
             frame.notes.push_back(
-                {note_id::time_backwards,
-                 fmt::format("the input's time goes back {:.3f} s here",
-                             static_cast<double>(back) / 1e9)});
+                {note_id::time_backwards, fmt::format("the input's time goes back {:.3f} s here",
+                                                      static_cast<double>(back) / 1e9)});
         }
     }
     pos_ = at + length;
