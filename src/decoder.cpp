@@ -415,7 +415,8 @@ void write_multiple_request(Decoder& d, bool bits) {
 
     const Bytes bytes = d.counted_part(*count, slice(d.data, 5));
     if (qty) {
-        const std::size_t need = bits ? (std::size_t{*qty} + 7) / 8 : std::size_t{2} * *qty;
+        const std::size_t asked = *qty;
+        const std::size_t need = bits ? (asked + 7) / 8 : 2 * asked;
         if (*count != need) {
             d.note(note_id::byte_count_mismatch,
                    fmt::format("byte count {}, {} need {}", *count,
