@@ -285,9 +285,9 @@ bool date_time_at(std::string_view s, std::size_t i, Nanos& out) {
     if ((sep != '-' && sep != '/') || s[i + 7] != sep) return false;
     if (!digits_at(s, i + 5, 2, mo) || !digits_at(s, i + 8, 2, d)) return false;
     if (mo < 1 || mo > 12 || d < 1 || d > 31) return false;
-    // Nanoseconds since 1970 in 64 bits reach the years 1677-2262; a date outside is no
-    // timestamp this reader can keep (found by fuzzing: year 4565 overflowed).
-    if (y < 1900 || y > 2261) return false;
+    // Times are bounded by kMaxTime (up to the year 2112, see time.hpp); a date outside
+    // is no timestamp this reader can keep (found by fuzzing: year 4565 overflowed).
+    if (y < 1900 || y > 2111) return false;
     const char between = s[i + 10];
     if (between != ' ' && between != 'T' && between != '_') return false;
     Nanos tod = 0;
@@ -390,7 +390,10 @@ class HexReader final : public ChunkSource {
         // A log of times without dates that runs past midnight goes on counting rather
         // than jumping back a day.
         Nanos t = found.time + day_offset_;
-        if (has_time(last_time_of_day_) && t < last_time_of_day_ - kDay / 2) {
+        // Never past kMaxTime: a long log flipping between evening and morning would
+        // otherwise count days up to an overflow. Stuck there, its time goes back instead.
+        if (has_time(last_time_of_day_) && t < last_time_of_day_ - kDay / 2 &&
+            t <= kMaxTime - kDay) {
             day_offset_ += kDay;
             t += kDay;
         }

@@ -286,8 +286,19 @@ class PcapSource final : public ChunkSource {
                 continue;
             }
             // The file was opened with nanosecond precision: tv_usec holds nanoseconds.
-            out.time = static_cast<Nanos>(header->ts.tv_sec) * kNanosPerSecond +
-                       static_cast<Nanos>(header->ts.tv_usec);
+            // pcapng timestamps are 64 bits in a unit the file chooses, so the seconds
+            // libpcap derives need not fit in 64-bit nanoseconds (found by fuzzing: signed
+            // overflow here). A time beyond kMaxTime is an error, as in a capture v1 text.
+            Nanos time = 0;
+            if (__builtin_mul_overflow(static_cast<Nanos>(header->ts.tv_sec), kNanosPerSecond,
+                                       &time) ||
+                __builtin_add_overflow(time, static_cast<Nanos>(header->ts.tv_usec), &time) ||
+                time > kMaxTime || time < -kMaxTime) {
+                return Error{fmt::format("packet {}: timestamp {} s out of range", packets_,
+                                         static_cast<std::int64_t>(header->ts.tv_sec)),
+                             info_.name};
+            }
+            out.time = time;
             out.channel = std::move(got->channel);
             out.bytes.assign(got->frame.begin(), got->frame.end());
             out.source_line = 0;

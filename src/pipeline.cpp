@@ -202,6 +202,17 @@ Status run_pipeline(ChunkSource& source, const PipelineOptions& options, RecordS
             break;
         }
         if (!*more) break;
+        // Times beyond kMaxTime would overflow the framer's and the pairing's
+        // subtractions (time.hpp; found while fuzzing). Readers may parse them, the
+        // stages cannot use them: stop as at a bad line, keeping what came before.
+        if (has_time(chunk.time) && (chunk.time > kMaxTime || chunk.time < -kMaxTime)) {
+            status = Error{
+                fmt::format("time {:.3f} s out of range (at most {} s either side "
+                            "of zero)",
+                            static_cast<double>(chunk.time) / 1e9, kMaxTime / kNanosPerSecond),
+                source.info().name, chunk.source_line};
+            break;
+        }
         if (chunk.bytes.empty()) {
             framer.idle(chunk.time, options.idle_margin);
             transactions.tick(chunk.time);
