@@ -40,7 +40,7 @@ int main(int argc, char** argv) {
         bad = 0;
         rtuscope::FramerOptions options;
         options.line = (*source)->info().line.value_or(rtuscope::LineSettings{});
-        rtuscope::Framer framer(options, [&](rtuscope::Frame&& f) {
+        rtuscope::Framer framer(options, [&](const rtuscope::Frame& f) {
             frames += f.cls == rtuscope::RecordClass::frame;
             bad += f.cls == rtuscope::RecordClass::invalid;
         });

@@ -83,7 +83,7 @@ void BM_FramerRaw(benchmark::State& state) {
     std::uint64_t frames = 0;
     for (auto _ : state) {
         rtuscope::FramerOptions options;
-        rtuscope::Framer framer(options, [&](rtuscope::Frame&& f) { frames += f.is_frame(); });
+        rtuscope::Framer framer(options, [&](const rtuscope::Frame& f) { frames += f.is_frame(); });
         rtuscope::Chunk chunk;
         for (std::size_t at = 0; at < raw.size(); at += 4096) {
             const auto* p = reinterpret_cast<const std::uint8_t*>(raw.data()) + at;
@@ -113,7 +113,7 @@ void BM_FramerTimedChunks(benchmark::State& state) {
     for (auto _ : state) {
         rtuscope::FramerOptions options;
         options.line.baud = 115200;
-        rtuscope::Framer framer(options, [&](rtuscope::Frame&& f) { frames += f.is_frame(); });
+        rtuscope::Framer framer(options, [&](const rtuscope::Frame& f) { frames += f.is_frame(); });
         for (const auto& c : chunks) {
             framer.push(c);
             bytes += c.bytes.size();

@@ -17,31 +17,52 @@ class CsvSink final : public RecordSink {
     }
 
     void record(const Record& r) override {
+        line_.clear();
         const bool framed = r.kind != Kind::noise;
-        const RecordFlags flags = record_flags(r);
-        std::string ids;
-        for (const std::string& id : flags.ids) ids += (ids.empty() ? "" : " ") + id;
-        std::string texts;
-        for (const std::string& text : flags.texts) texts += (texts.empty() ? "" : "; ") + text;
-        std::string line = fmt::format("{},{},", r.number, seconds_text(r.frame.start));
-        if (framed && !r.frame.bytes.empty()) line += fmt::format("{}", r.frame.slave());
-        line += ',';
-        if (framed && r.frame.bytes.size() >= 2) line += fmt::format("{}", r.frame.function());
-        line += fmt::format(",{},{},", to_string(r.kind), to_string(r.frame.crc.status));
-        if (r.request_number != 0) line += fmt::format("{}", r.request_number);
-        line += ',';
-        if (has_time(r.latency))
-            line += fmt::format("{:.3f}", static_cast<double>(r.latency) / 1e6);
-        line += ',';
-        line += csv_field(record_summary(r));
-        line += ',';
-        line += hex_bytes(r.frame.bytes, false);
-        line += ',';
-        line += csv_field(ids);
-        line += ',';
-        line += csv_field(texts);
-        line += '\n';
-        std::fwrite(line.data(), 1, line.size(), out_);
+        fmt::format_to(std::back_inserter(line_), "{},", r.number);
+        append_seconds(line_, r.frame.start);
+        line_ += ',';
+        if (framed && !r.frame.bytes.empty()) append_int(r.frame.slave());
+        line_ += ',';
+        if (framed && r.frame.bytes.size() >= 2) append_int(r.frame.function());
+        line_ += ',';
+        line_ += to_string(r.kind);
+        line_ += ',';
+        line_ += to_string(r.frame.crc.status);
+        line_ += ',';
+        if (r.request_number != 0) append_int(r.request_number);
+        line_ += ',';
+        if (has_time(r.latency)) {
+            fmt::format_to(std::back_inserter(line_), "{:.3f}",
+                           static_cast<double>(r.latency) / 1e6);
+        }
+        line_ += ',';
+        field_.clear();
+        append_summary(field_, r);
+        append_csv_field(line_, field_);
+        line_ += ',';
+        append_hex(line_, r.frame.bytes, false);
+        line_ += ',';
+        if (!r.notes.empty() || !r.values.empty()) {
+            const RecordFlags flags = record_flags(r);
+            field_.clear();
+            for (const std::string& id : flags.ids) {
+                if (!field_.empty()) field_ += ' ';
+                field_ += id;
+            }
+            append_csv_field(line_, field_);
+            line_ += ',';
+            field_.clear();
+            for (const std::string& text : flags.texts) {
+                if (!field_.empty()) field_ += "; ";
+                field_ += text;
+            }
+            append_csv_field(line_, field_);
+        } else {
+            line_ += ',';
+        }
+        line_ += '\n';
+        std::fwrite(line_.data(), 1, line_.size(), out_);
     }
 
     void flush() override { std::fflush(out_); }
@@ -51,7 +72,14 @@ class CsvSink final : public RecordSink {
     }
 
   private:
+    void append_int(std::uint64_t value) {
+        const fmt::format_int text(value);
+        line_.append(text.data(), text.size());
+    }
+
     std::FILE* out_;
+    std::string line_;   // the row being built, reused
+    std::string field_;  // one field before quoting, reused
 };
 
 }  // namespace

@@ -83,51 +83,80 @@ std::string counted(std::size_t n, std::string_view one, std::string_view many) 
     return fmt::format("{} {}", n, n == 1 ? one : many);
 }
 
-std::string word_list(const std::vector<std::uint16_t>& values) {
-    std::string s;
+// Summaries are built by appending to the record's reused string: the decoder runs once
+// per frame, and a temporary string per field was most of its time.
+void append_hex4(std::string& s, std::uint16_t value) {
+    static constexpr char kDigits[] = "0123456789ABCDEF";
+    const char text[6] = {'0', 'x', kDigits[value >> 12], kDigits[(value >> 8) & 0xFU],
+                          kDigits[(value >> 4) & 0xFU], kDigits[value & 0xFU]};
+    s.append(text, sizeof text);
+}
+
+void append_word_list(std::string& s, std::span<const std::uint16_t> values) {
     const std::size_t listed = std::min(values.size(), kListedWords);
     for (std::size_t i = 0; i < listed; ++i) {
         if (i != 0) s += ' ';
-        s += fmt::format("0x{:04X}", values[i]);
+        append_hex4(s, values[i]);
     }
-    if (values.size() > listed) s += fmt::format(" ... (+{} more)", values.size() - listed);
+    if (values.size() > listed) {
+        fmt::format_to(std::back_inserter(s), " ... (+{} more)", values.size() - listed);
+    }
+}
+
+std::string word_list(std::span<const std::uint16_t> values) {
+    std::string s;
+    append_word_list(s, values);
     return s;
 }
 
-std::string bit_list(const std::vector<std::uint16_t>& bits) {
-    std::string s;
+void append_bit_list(std::string& s, std::span<const std::uint16_t> bits) {
     const std::size_t listed = std::min(bits.size(), kListedBits);
     for (std::size_t i = 0; i < listed; ++i) s += bits[i] != 0 ? '1' : '0';
-    if (bits.size() > listed) s += fmt::format(" ... (+{} more)", bits.size() - listed);
-    return s;
+    if (bits.size() > listed) {
+        fmt::format_to(std::back_inserter(s), " ... (+{} more)", bits.size() - listed);
+    }
 }
 
 // "2 registers: 0x1818 0x0000", "0 registers"
-std::string listed(const std::vector<std::uint16_t>& values, std::string_view one,
+void append_listed(std::string& s, std::span<const std::uint16_t> values, std::string_view one,
                    std::string_view many, bool as_bits) {
-    std::string s = counted(values.size(), one, many);
-    if (!values.empty()) s += ": " + (as_bits ? bit_list(values) : word_list(values));
+    fmt::format_to(std::back_inserter(s), "{} {}", values.size(), values.size() == 1 ? one : many);
+    if (values.empty()) return;
+    s += ": ";
+    if (as_bits) {
+        append_bit_list(s, values);
+    } else {
+        append_word_list(s, values);
+    }
+}
+
+std::string listed(std::span<const std::uint16_t> values, std::string_view one,
+                   std::string_view many, bool as_bits) {
+    std::string s;
+    append_listed(s, values, one, many, as_bits);
     return s;
+}
+
+void words_of(Bytes b, std::vector<std::uint16_t>& v) {
+    v.clear();
+    for (std::size_t i = 0; i + 1 < b.size(); i += 2) {
+        v.push_back(static_cast<std::uint16_t>((b[i] << 8) | b[i + 1]));
+    }
 }
 
 std::vector<std::uint16_t> words_of(Bytes b) {
     std::vector<std::uint16_t> v;
-    v.reserve(b.size() / 2);
-    for (std::size_t i = 0; i + 1 < b.size(); i += 2) {
-        v.push_back(static_cast<std::uint16_t>((b[i] << 8) | b[i + 1]));
-    }
+    words_of(b, v);
     return v;
 }
 
 // Bits in address order: the LSB of the first byte is the first address (6.1).
-std::vector<std::uint16_t> bits_of(Bytes b, std::size_t count) {
+void bits_of(Bytes b, std::size_t count, std::vector<std::uint16_t>& v) {
     count = std::min(count, b.size() * 8);
-    std::vector<std::uint16_t> v;
-    v.reserve(count);
+    v.clear();
     for (std::size_t i = 0; i < count; ++i) {
         v.push_back(static_cast<std::uint16_t>((b[i / 8] >> (i % 8)) & 1U));
     }
-    return v;
 }
 
 // Strings of Read Device Identification: printable ASCII as is, the rest escaped.
@@ -160,13 +189,15 @@ std::string join(const std::vector<std::string>& parts, std::string_view sep) {
 // Decoding state and checks shared by the function codes
 
 struct Decoder {
+    explicit Decoder(DecodedPdu& pdu_out) : out(pdu_out) {}
+
     std::uint8_t fc = 0;
     Role role = Role::request;
     Bytes pdu;
     Bytes data;  // the PDU without its function code
     Bytes req;   // data of the request this answers (without function code)
     bool has_request = false;
-    DecodedPdu out;
+    DecodedPdu& out;
 
     void note(const char* id, std::string text) { out.notes.push_back({id, std::move(text)}); }
 
@@ -215,12 +246,37 @@ struct Decoder {
         }
     }
 
-    // An answer that repeats the first `n` data bytes of its request (05, 06, 08, 16, ...).
-    void check_echo(std::size_t n, const std::string& request_text) {
+    // An answer that repeats the first `n` data bytes of its request (05, 06, 08, 16, ...);
+    // `text_of` describes the request when it does not.
+    template <typename TextOf>
+    void check_echo(std::size_t n, TextOf text_of) {
         if (!has_request || req.size() < n || data.size() < n) return;
         if (!std::equal(data.begin(), data.begin() + static_cast<std::ptrdiff_t>(n), req.begin())) {
-            note(note_id::request_mismatch, fmt::format("request was {}", request_text));
+            note(note_id::request_mismatch, fmt::format("request was {}", text_of(req)));
         }
+    }
+
+    // A data block for the profile layer, reusing the buffers of an earlier record's.
+    DataBlock& add_block(DataTable table, std::uint16_t start, bool write) {
+        if (out.spare_blocks.empty()) {
+            out.blocks.emplace_back();
+        } else {
+            out.blocks.push_back(std::move(out.spare_blocks.back()));
+            out.spare_blocks.pop_back();
+        }
+        DataBlock& block = out.blocks.back();
+        block.table = table;
+        block.start = start;
+        block.values.clear();
+        block.write = write;
+        block.custom_table.clear();
+        return block;
+    }
+
+    // Takes back the block just added (it turned out to carry nothing to explain).
+    void drop_last_block() {
+        out.spare_blocks.push_back(std::move(out.blocks.back()));
+        out.blocks.pop_back();
     }
 };
 
@@ -242,10 +298,15 @@ std::optional<Range> asked_range(const Decoder& d) {
 }
 
 // "0x0013 x10" from whatever of the two fields is present.
+void append_range(std::string& s, std::optional<std::uint16_t> start,
+                  std::optional<std::uint16_t> qty) {
+    if (start) append_hex4(s, *start);
+    if (qty) fmt::format_to(std::back_inserter(s), "{}x{}", start ? " " : "", *qty);
+}
+
 std::string range_text(std::optional<std::uint16_t> start, std::optional<std::uint16_t> qty) {
     std::string s;
-    if (start) s += fmt::format("0x{:04X}", *start);
-    if (qty) s += fmt::format("{}x{}", s.empty() ? "" : " ", *qty);
+    append_range(s, start, qty);
     return s;
 }
 
@@ -262,7 +323,7 @@ void read_request(Decoder& d, std::uint16_t max_qty) {
     d.expect_size(5);
     const auto start = u16_at(d.data, 0);
     const auto qty = u16_at(d.data, 2);
-    d.out.summary = range_text(start, qty);
+    append_range(d.out.summary, start, qty);
     if (qty) d.check_quantity(*qty, max_qty);
     if (start && qty) d.check_range(*start, *qty);
 }
@@ -292,10 +353,10 @@ void read_bits_response(Decoder& d, DataTable table, std::string_view one, std::
     }
     // Without the request the padding cannot be told from data: show every bit.
     const std::size_t n = asked ? std::size_t{asked->qty} : bytes.size() * 8;
-    std::vector<std::uint16_t> bits = bits_of(bytes, n);
-    d.out.summary = listed(bits, one, many, true);
-    if (asked && !bits.empty())
-        d.out.blocks.push_back({table, asked->start, std::move(bits), false, {}});
+    DataBlock& block = d.add_block(table, asked ? asked->start : 0, false);
+    bits_of(bytes, n, block.values);
+    append_listed(d.out.summary, block.values, one, many, true);
+    if (!asked || block.values.empty()) d.drop_last_block();
 }
 
 // 6.3 / 6.4 / 6.17 responses: registers, two bytes each.
@@ -322,11 +383,10 @@ void read_registers_response(Decoder& d, DataTable table) {
                fmt::format("byte count {}, {} asked need {}", *count,
                            counted(asked->qty, "register", "registers"), 2U * asked->qty));
     }
-    std::vector<std::uint16_t> values = words_of(bytes);
-    d.out.summary = listed(values, "register", "registers", false);
-    if (asked && !values.empty()) {
-        d.out.blocks.push_back({table, asked->start, std::move(values), false, {}});
-    }
+    DataBlock& block = d.add_block(table, asked ? asked->start : 0, false);
+    words_of(bytes, block.values);
+    append_listed(d.out.summary, block.values, "register", "registers", false);
+    if (!asked || block.values.empty()) d.drop_last_block();
 }
 
 // ---------------------------------------------------------------------------------
@@ -360,13 +420,10 @@ void write_single_coil(Decoder& d) {
         d.note(note_id::illegal_value,
                fmt::format("coil value 0x{:04X}, 0xFF00 or 0x0000 expected", *value));
     } else if (address && value) {
-        d.out.blocks.push_back({DataTable::coils,
-                                *address,
-                                {static_cast<std::uint16_t>(*value == kCoilOn)},
-                                true,
-                                {}});
+        d.add_block(DataTable::coils, *address, true)
+            .values.push_back(static_cast<std::uint16_t>(*value == kCoilOn));
     }
-    if (d.is_response()) d.check_echo(4, single_coil_text(d.req));
+    if (d.is_response()) d.check_echo(4, single_coil_text);
 }
 
 // 6.6 Write Single Register (06), request and echo
@@ -376,11 +433,20 @@ void write_single_coil(Decoder& d) {
 //   +----+---------+-------+
 //     1       2        2
 
-std::string single_register_text(Bytes b) {
+void append_single_register(std::string& s, Bytes b) {
     const auto address = u16_at(b, 0);
     const auto value = u16_at(b, 2);
-    std::string s = address ? fmt::format("0x{:04X}", *address) : "";
-    if (value) s += fmt::format("{}= 0x{:04X} ({})", s.empty() ? "" : " ", *value, *value);
+    if (address) append_hex4(s, *address);
+    if (value) {
+        s += address ? " = " : "= ";
+        append_hex4(s, *value);
+        fmt::format_to(std::back_inserter(s), " ({})", *value);
+    }
+}
+
+std::string single_register_text(Bytes b) {
+    std::string s;
+    append_single_register(s, b);
     return s;
 }
 
@@ -388,11 +454,11 @@ void write_single_register(Decoder& d) {
     d.expect_size(5);
     const auto address = u16_at(d.data, 0);
     const auto value = u16_at(d.data, 2);
-    d.out.summary = single_register_text(d.data);
+    append_single_register(d.out.summary, d.data);
     if (address && value) {
-        d.out.blocks.push_back({DataTable::holding_registers, *address, {*value}, true, {}});
+        d.add_block(DataTable::holding_registers, *address, true).values.push_back(*value);
     }
-    if (d.is_response()) d.check_echo(4, single_register_text(d.req));
+    if (d.is_response()) d.check_echo(4, single_register_text);
 }
 
 // ---------------------------------------------------------------------------------
@@ -408,7 +474,7 @@ void write_multiple_request(Decoder& d, bool bits) {
     const auto start = u16_at(d.data, 0);
     const auto qty = u16_at(d.data, 2);
     const auto count = u8_at(d.data, 4);
-    d.out.summary = range_text(start, qty);
+    append_range(d.out.summary, start, qty);
     if (qty) d.check_quantity(*qty, bits ? kMaxWriteBits : kMaxWriteRegisters);
     if (start && qty) d.check_range(*start, *qty);
     if (!count) return;
@@ -425,18 +491,22 @@ void write_multiple_request(Decoder& d, bool bits) {
                                need));
         }
     }
-    std::vector<std::uint16_t> values =
-        bits ? bits_of(bytes, qty ? std::size_t{*qty} : bytes.size() * 8) : words_of(bytes);
-    if (!values.empty()) {
-        d.out.summary += ": " + (bits ? bit_list(values) : word_list(values));
-        if (start) {
-            d.out.blocks.push_back({bits ? DataTable::coils : DataTable::holding_registers,
-                                    *start,
-                                    std::move(values),
-                                    true,
-                                    {}});
+    DataBlock& block =
+        d.add_block(bits ? DataTable::coils : DataTable::holding_registers, start.value_or(0), true);
+    if (bits) {
+        bits_of(bytes, qty ? std::size_t{*qty} : bytes.size() * 8, block.values);
+    } else {
+        words_of(bytes, block.values);
+    }
+    if (!block.values.empty()) {
+        d.out.summary += ": ";
+        if (bits) {
+            append_bit_list(d.out.summary, block.values);
+        } else {
+            append_word_list(d.out.summary, block.values);
         }
     }
+    if (!start || block.values.empty()) d.drop_last_block();
 }
 
 // 0F / 10 responses: the start address and quantity written.
@@ -449,7 +519,7 @@ void write_multiple_response(Decoder& d, bool bits) {
     d.expect_size(5);
     const auto start = u16_at(d.data, 0);
     const auto qty = u16_at(d.data, 2);
-    d.out.summary = range_text(start, qty);
+    append_range(d.out.summary, start, qty);
     if (qty) d.check_quantity(*qty, bits ? kMaxWriteBits : kMaxWriteRegisters);
     if (const auto asked = asked_range(d);
         asked && start && qty && (asked->start != *start || asked->qty != *qty)) {
@@ -481,7 +551,7 @@ std::string mask_write_text(Bytes b) {
 void mask_write_register(Decoder& d) {
     d.expect_size(7);
     d.out.summary = mask_write_text(d.data);
-    if (d.is_response()) d.check_echo(6, mask_write_text(d.req));
+    if (d.is_response()) d.check_echo(6, mask_write_text);
 }
 
 // ---------------------------------------------------------------------------------
@@ -514,14 +584,14 @@ void read_write_request(Decoder& d) {
                    fmt::format("byte count {}, {} need {}", *count,
                                counted(*write_qty, "register", "registers"), 2U * *write_qty));
         }
-        std::vector<std::uint16_t> values = words_of(bytes);
-        if (!values.empty()) {
-            s += ": " + word_list(values);
-            if (write_start) {
-                d.out.blocks.push_back(
-                    {DataTable::holding_registers, *write_start, std::move(values), true, {}});
-            }
+        DataBlock& block =
+            d.add_block(DataTable::holding_registers, write_start.value_or(0), true);
+        words_of(bytes, block.values);
+        if (!block.values.empty()) {
+            s += ": ";
+            append_word_list(s, block.values);
         }
+        if (!write_start || block.values.empty()) d.drop_last_block();
     }
     d.out.summary = std::move(s);
 }
@@ -1123,8 +1193,8 @@ void exception_response(Decoder& d) {
     d.expect_size(2);
     d.out.exception_code = *code;
     const char* name = exception_name(*code);
-    d.out.summary =
-        fmt::format("exception {:02X} {}", *code, name ? name : "unknown exception code");
+    fmt::format_to(std::back_inserter(d.out.summary), "exception {:02X} {}", *code,
+                   name ? name : "unknown exception code");
     if (!name) {
         d.note(note_id::illegal_value,
                fmt::format("exception code 0x{:02X} is not defined by the specification", *code));
@@ -1210,18 +1280,36 @@ void decode_function(Decoder& d) {
 
 }  // namespace
 
+void DecodedPdu::clear() {
+    function_name.clear();
+    summary.clear();
+    exception = false;
+    exception_code = 0;
+    notes.clear();
+    for (DataBlock& block : blocks) spare_blocks.push_back(std::move(block));
+    blocks.clear();
+}
+
 DecodedPdu decode_pdu(std::span<const std::uint8_t> pdu, Role role,
                       std::span<const std::uint8_t> request_pdu) {
-    Decoder d;
+    DecodedPdu out;
+    decode_pdu(pdu, role, request_pdu, out);
+    return out;
+}
+
+void decode_pdu(std::span<const std::uint8_t> pdu, Role role,
+                std::span<const std::uint8_t> request_pdu, DecodedPdu& out) {
+    out.clear();
+    Decoder d(out);
     d.pdu = pdu;
     d.role = role;
     if (pdu.empty()) {
         d.note(note_id::malformed, "empty PDU: no function code");
-        return std::move(d.out);
+        return;
     }
     d.fc = pdu[0];
     d.data = pdu.subspan(1);
-    d.out.function_name = function_name(d.fc);
+    append_function_name(out.function_name, d.fc);
     if (role == Role::response && !request_pdu.empty()) {
         if (request_pdu[0] == (d.fc & 0x7FU)) {
             d.req = request_pdu.subspan(1);
@@ -1237,10 +1325,24 @@ DecodedPdu decode_pdu(std::span<const std::uint8_t> pdu, Role role,
     } else {
         decode_function(d);
     }
-    return std::move(d.out);
 }
 
 std::string function_name(std::uint8_t function) {
+    std::string name;
+    append_function_name(name, function);
+    return name;
+}
+
+void append_function_name(std::string& out, std::uint8_t function) {
+    const char* name = standard_function_name(function);
+    if (name != nullptr) {
+        out += name;
+    } else {
+        fmt::format_to(std::back_inserter(out), "Function 0x{:02X}", function & 0x7FU);
+    }
+}
+
+const char* standard_function_name(std::uint8_t function) {
     const auto fc = static_cast<std::uint8_t>(function & 0x7FU);
     switch (fc) {
         case 0x01:
@@ -1282,7 +1384,7 @@ std::string function_name(std::uint8_t function) {
         case 0x2B:
             return "Encapsulated Interface Transport";
         default:
-            return fmt::format("Function 0x{:02X}", fc);
+            return nullptr;
     }
 }
 

@@ -65,7 +65,7 @@ void Framer::push(const Chunk& chunk) {
     const auto channel = static_cast<std::uint16_t>(channel_it - channels_.begin());
     if (channel_it == channels_.end()) channels_.push_back(chunk.channel);
     const bool channel_changed =
-        !bytes_.empty() && pos_ < bytes_.size() && channel_.back() != channel;
+        !pieces_.empty() && pos_ < bytes_.size() && pieces_.back().channel != channel;
 
     // The chunk's time is when its last byte arrived; earlier bytes are placed back to
     // back before it, but never before the previous byte (adapters deliver late).
@@ -87,23 +87,19 @@ void Framer::push(const Chunk& chunk) {
         gap = kBoundary;
     }
 
-    for (std::size_t i = 0; i < chunk.bytes.size(); ++i) {
-        bytes_.push_back(chunk.bytes[i]);
-        Nanos end = kNoTime;
-        if (has_time(chunk.time)) {
-            end = first_start + (chunk.time - first_start) * static_cast<Nanos>(i + 1) / n;
-        }
-        byte_end_.push_back(end);
-        gap_.push_back(i == 0 ? gap : kNoTime);
-        exact_.push_back(chunk.bytes.size() == 1 && previous_chunk_single_);
-        channel_.push_back(channel);
-        line_.push_back(chunk.source_line);
-        char_error_.push_back(false);
-    }
+    Piece piece;
+    piece.first = base_ + bytes_.size();
+    piece.first_start = first_start;
+    piece.time = chunk.time;
+    piece.gap = gap;
+    piece.line = chunk.source_line;
+    piece.channel = channel;
+    piece.exact = chunk.bytes.size() == 1 && previous_chunk_single_;
+    pieces_.push_back(piece);
     for (const std::uint32_t offset : chunk.char_errors) {
-        if (offset < chunk.bytes.size())
-            char_error_[bytes_.size() - chunk.bytes.size() + offset] = true;
+        if (offset < chunk.bytes.size()) char_errors_.push_back(bytes_.size() + offset);
     }
+    bytes_.insert(bytes_.end(), chunk.bytes.begin(), chunk.bytes.end());
     if (has_time(chunk.time)) last_end_ = chunk.time;
     previous_chunk_single_ = chunk.bytes.size() == 1;
     seen_bytes_ = true;
@@ -120,20 +116,68 @@ void Framer::finish() {
     decide(true);
 }
 
+const Framer::Piece& Framer::piece_of(std::size_t at) const {
+    const std::uint64_t index = base_ + at;
+    // Most lookups are at or just after the previous one.
+    std::size_t i = piece_hint_ < pieces_.size() ? piece_hint_ : 0;
+    if (pieces_[i].first > index) i = 0;
+    for (std::size_t steps = 0; i + 1 < pieces_.size() && pieces_[i + 1].first <= index; ++i) {
+        if (++steps == 4) {
+            auto it = std::upper_bound(
+                pieces_.begin() + static_cast<std::ptrdiff_t>(i), pieces_.end(), index,
+                [](std::uint64_t value, const Piece& p) { return value < p.first; });
+            i = static_cast<std::size_t>(it - pieces_.begin()) - 1;
+            break;
+        }
+    }
+    piece_hint_ = i;
+    return pieces_[i];
+}
+
+std::uint64_t Framer::piece_end(const Piece& piece) const {
+    const auto next = static_cast<std::size_t>(&piece - pieces_.data()) + 1;
+    return next < pieces_.size() ? pieces_[next].first : base_ + bytes_.size();
+}
+
+Nanos Framer::byte_end(std::size_t at) const {
+    const Piece& p = piece_of(at);
+    if (!has_time(p.time)) return kNoTime;
+    // Spread evenly over the chunk, its last byte ending at the chunk's time.
+    const auto n = static_cast<Nanos>(piece_end(p) - p.first);
+    const auto i = static_cast<Nanos>(base_ + at - p.first);
+    return p.first_start + (p.time - p.first_start) * (i + 1) / n;
+}
+
+Nanos Framer::gap_at(std::size_t at) const {
+    const Piece& p = piece_of(at);
+    return p.first == base_ + at ? p.gap : kNoTime;
+}
+
 bool Framer::gap_before(std::size_t at) const {
     if (at >= bytes_.size()) return false;
-    return gap_[at] != kNoTime && gap_[at] >= t35_;
+    const Nanos gap = gap_at(at);
+    return gap != kNoTime && gap >= t35_;
+}
+
+std::size_t Framer::gap_after(std::size_t after, std::size_t limit) const {
+    if (after + 1 >= limit) return limit;
+    // Gaps are only ever before the first byte of a chunk: walk the chunks, not the bytes.
+    std::size_t i = static_cast<std::size_t>(&piece_of(after + 1) - pieces_.data());
+    if (pieces_[i].first < base_ + after + 1) ++i;
+    for (; i < pieces_.size(); ++i) {
+        const auto at = static_cast<std::size_t>(pieces_[i].first - base_);
+        if (at >= limit) break;
+        const Nanos gap = pieces_[i].gap;
+        if (gap != kNoTime && gap >= t35_) return at;
+    }
+    return limit;
 }
 
 std::size_t Framer::next_gap(std::size_t after) const {
-    // Only the next kMaxAdu bytes matter to the callers (a frame is never longer), and
-    // untimed input has no gaps at all: scanning the whole buffer made the resync over
-    // raw dumps quadratic in the buffer size.
+    // Only the next kMaxAdu bytes matter to the callers (a frame is never longer).
     const std::size_t limit = std::min(bytes_.size(), after + kMaxAdu + 1);
-    for (std::size_t j = after + 1; j < limit; ++j) {
-        if (gap_before(j)) return j;
-    }
-    return bytes_.size();
+    const std::size_t found = gap_after(after, limit);
+    return found < limit ? found : bytes_.size();
 }
 
 Framer::Attempt Framer::attempt_at(std::size_t at, bool at_end) const {
@@ -150,14 +194,15 @@ Framer::Attempt Framer::attempt_at(std::size_t at, bool at_end) const {
 
     // Which reading the request/answer sequence expects here; on a two-port tap the
     // port it came from says it outright.
-    bool prefer_response = awaits_answer(head, byte_end_[at]);
-    const std::string& channel = channels_[channel_[at]];
+    const Nanos at_end_time = byte_end(at);
+    bool prefer_response = awaits_answer(head, at_end_time);
+    const std::string& channel = channels_[piece_of(at).channel];
     if (!channel.empty() && !options_.request_channel.empty()) {
         prefer_response = channel != options_.request_channel;
     } else if (prefer_response) {
         // The same request sent again (a master's retry) is not an answer, unless answers
         // to this function repeat the request anyway.
-        const auto& req = options_.expectation->awaited(byte_end_[at])->request;
+        const auto& req = options_.expectation->awaited(at_end_time)->request;
         if (!rules.answer_is_echo(slave, function) && req.size() <= avail &&
             std::equal(req.begin(), req.end(), head.begin())) {
             prefer_response = false;
@@ -336,12 +381,15 @@ void Framer::decide(bool at_end) {
     if (pos_ == bytes_.size() || pos_ > (1U << 16)) {
         const auto drop = static_cast<std::ptrdiff_t>(pos_);
         bytes_.erase(bytes_.begin(), bytes_.begin() + drop);
-        byte_end_.erase(byte_end_.begin(), byte_end_.begin() + drop);
-        gap_.erase(gap_.begin(), gap_.begin() + drop);
-        exact_.erase(exact_.begin(), exact_.begin() + drop);
-        channel_.erase(channel_.begin(), channel_.begin() + drop);
-        line_.erase(line_.begin(), line_.begin() + drop);
-        char_error_.erase(char_error_.begin(), char_error_.begin() + drop);
+        base_ += pos_;
+        // Chunks wholly before the new start go; the one the start falls in stays.
+        std::size_t keep = 0;
+        while (keep + 1 < pieces_.size() && pieces_[keep + 1].first <= base_) ++keep;
+        if (bytes_.empty()) keep = pieces_.size();
+        pieces_.erase(pieces_.begin(), pieces_.begin() + static_cast<std::ptrdiff_t>(keep));
+        piece_hint_ = 0;
+        std::erase_if(char_errors_, [&](std::size_t index) { return index < pos_; });
+        for (std::size_t& index : char_errors_) index -= pos_;
         std::erase_if(time_jumps_, [&](const auto& jump) { return jump.first < pos_; });
         for (auto& jump : time_jumps_) jump.first -= pos_;
         scan_hint_ = scan_hint_ > pos_ ? scan_hint_ - pos_ : 0;
@@ -376,11 +424,10 @@ Reading Framer::reading_by_shape(std::span<const std::uint8_t> frame, Nanos at,
 }
 
 void Framer::classify_unframed(std::size_t from, std::size_t to) {
-    const bool timed = has_time(byte_end_[from]);
+    const bool timed = has_time(byte_end(from));
     std::size_t start = from;
     while (start < to) {
-        std::size_t end = start + 1;
-        while (end < to && !gap_before(end)) ++end;
+        const std::size_t end = gap_after(start, to);
         const std::size_t n = end - start;
         const auto piece = std::span(bytes_).subspan(start, n);
         const bool bounded_by_gaps =
@@ -388,7 +435,7 @@ void Framer::classify_unframed(std::size_t from, std::size_t to) {
 
         if (n >= kMinAdu) {
             const CrcCheck crc = check_crc(piece);
-            const Reading shape = reading_by_shape(piece, byte_end_[start], false);
+            const Reading shape = reading_by_shape(piece, byte_end(start), false);
             if (crc.status != CrcStatus::bad) {
                 // CRC right but the length disagrees with the function code.
                 emit(start, n, RecordClass::frame, shape, Delimiter::gap,
@@ -415,7 +462,7 @@ void Framer::classify_unframed(std::size_t from, std::size_t to) {
 bool Framer::emit_if_truncated(std::size_t at, std::size_t n) {
     // A broken-off transmission: too short for the length its header implies.
     const auto piece = std::span(bytes_).subspan(at, n);
-    const bool answer_first = awaits_answer(piece, byte_end_[at]);
+    const bool answer_first = awaits_answer(piece, byte_end(at));
     for (const Role role : {answer_first ? Role::response : Role::request,
                             answer_first ? Role::request : Role::response}) {
         const FrameLength length = options_.rules->frame_length(piece, role);
@@ -429,7 +476,10 @@ bool Framer::emit_if_truncated(std::size_t at, std::size_t n) {
 }
 
 void Framer::emit_chunk_as_frame(const Chunk& chunk) {
-    Frame frame;
+    Frame& frame = frame_;
+    frame.notes.clear();
+    frame.start = kNoTime;
+    frame.silence_before = kNoTime;
     frame.bytes = chunk.bytes;
     const Nanos duration = static_cast<Nanos>(chunk.bytes.size()) * char_time_;
     frame.end = chunk.time;
@@ -456,23 +506,27 @@ void Framer::emit_chunk_as_frame(const Chunk& chunk) {
     if (frame.reading == Reading::unknown && frame.cls == RecordClass::frame) {
         frame.notes.push_back({note_id::malformed, "length does not fit its function code"});
     }
-    emit_(std::move(frame));
+    emit_(frame);
 }
 
 void Framer::emit(std::size_t at, std::size_t length, RecordClass cls, Reading reading,
                   Delimiter delimiter, Notes notes) {
-    Frame frame;
+    Frame& frame = frame_;
     frame.bytes.assign(bytes_.begin() + static_cast<std::ptrdiff_t>(at),
                        bytes_.begin() + static_cast<std::ptrdiff_t>(at + length));
+    frame.notes.clear();
     frame.cls = cls;
     frame.reading = reading;
     frame.delimiter = delimiter;
-    if (cls != RecordClass::noise) frame.crc = check_crc(frame.bytes);
-    if (has_time(byte_end_[at])) frame.start = byte_end_[at] - char_time_;
-    frame.end = byte_end_[at + length - 1];
-    if (gap_[at] != kNoTime && gap_[at] != kBoundary) frame.silence_before = gap_[at];
-    frame.channel = channels_[channel_[at]];
-    frame.source_line = line_[at];
+    frame.crc = cls != RecordClass::noise ? check_crc(frame.bytes) : CrcCheck{};
+    const Nanos first_end = byte_end(at);
+    frame.start = has_time(first_end) ? first_end - char_time_ : kNoTime;
+    frame.end = byte_end(at + length - 1);
+    const Nanos gap = gap_at(at);
+    frame.silence_before = gap != kNoTime && gap != kBoundary ? gap : kNoTime;
+    const Piece& piece = piece_of(at);
+    frame.channel = channels_[piece.channel];
+    frame.source_line = piece.line;
     // A frame cut short has no CRC to be wrong.
     const bool cut_short =
         !notes.empty() && std::string_view(notes.front().id) == note_id::truncated;
@@ -481,8 +535,10 @@ void Framer::emit(std::size_t at, std::size_t length, RecordClass cls, Reading r
     frame.notes.insert(frame.notes.end(), notes.begin(), notes.end());
     if (cls != RecordClass::noise) add_timing_notes(frame, at, length);
     std::string hit;
-    for (std::size_t j = at; j < at + length; ++j) {
-        if (char_error_[j]) hit += (hit.empty() ? "" : ", ") + std::to_string(j - at + 1);
+    for (const std::size_t j : char_errors_) {
+        if (j >= at && j < at + length) {
+            hit += (hit.empty() ? "" : ", ") + std::to_string(j - at + 1);
+        }
     }
     if (!hit.empty()) {
         frame.notes.push_back({note_id::char_error, "parity/framing error on byte " + hit});
@@ -496,24 +552,27 @@ void Framer::emit(std::size_t at, std::size_t length, RecordClass cls, Reading r
     }
     pos_ = at + length;
     scan_hint_ = 0;
-    emit_(std::move(frame));
+    emit_(frame);
 }
 
 void Framer::add_timing_notes(Frame& frame, std::size_t at, std::size_t length) const {
     // Only per-byte timing (one byte per chunk) measures real silences; a chunk of many
     // bytes only says when the adapter handed them over.
-    auto measured = [&](std::size_t j) {
-        return exact_[j] && gap_[j] != kNoTime && gap_[j] != kBoundary;
+    auto measured = [](const Piece& p) {
+        return p.exact && p.gap != kNoTime && p.gap != kBoundary;
     };
-    if (measured(at) && gap_[at] < t35_) {
+    const Piece& first = piece_of(at);
+    if (first.first == base_ + at && measured(first) && first.gap < t35_) {
         frame.notes.push_back(
             {note_id::short_gap,
              fmt::format("{:.1f} character times of silence before it (< t3.5)",
-                         static_cast<double>(gap_[at]) / static_cast<double>(char_time_))});
+                         static_cast<double>(first.gap) / static_cast<double>(char_time_))});
     }
+    // Silences inside: before the first byte of every later chunk within the frame.
     Nanos widest = 0;
-    for (std::size_t j = at + 1; j < at + length; ++j) {
-        if (measured(j)) widest = std::max(widest, gap_[j]);
+    for (auto i = static_cast<std::size_t>(&first - pieces_.data()) + 1;
+         i < pieces_.size() && pieces_[i].first < base_ + at + length; ++i) {
+        if (measured(pieces_[i])) widest = std::max(widest, pieces_[i].gap);
     }
     if (widest > t15_) {
         frame.notes.push_back({note_id::gap_inside,

@@ -141,7 +141,7 @@ void decode_record(Record& record, const Bus* bus) {
     if (own != nullptr && !(frame.function() & 0x80U)) {
         record.decoded = decode_own_function(*own, frame.pdu());
     } else {
-        record.decoded = decode_pdu(frame.pdu(), role, request_pdu);
+        decode_pdu(frame.pdu(), role, request_pdu, record.decoded);
         if (own != nullptr) record.decoded.function_name = own->name;
     }
     for (const Note& note : record.decoded.notes) record.notes.push_back(note);
@@ -191,7 +191,7 @@ Status run_pipeline(ChunkSource& source, const PipelineOptions& options, RecordS
     framer_options.chunk_time_is_start = session.source.chunk_time_is_start;
     framer_options.rules = rules;
     framer_options.expectation = &transactions;
-    Framer framer(framer_options, [&](Frame&& frame) { transactions.push(std::move(frame)); });
+    Framer framer(framer_options, [&](const Frame& frame) { transactions.push(frame); });
 
     Chunk chunk;
     Status status = ok_status();

@@ -6,49 +6,85 @@
 
 namespace rtuscope {
 
-std::string hex_bytes(std::span<const std::uint8_t> bytes, bool spaced) {
+void append_hex(std::string& out, std::span<const std::uint8_t> bytes, bool spaced) {
     static constexpr char kDigits[] = "0123456789ABCDEF";
-    std::string text;
-    text.reserve(bytes.size() * 3);
+    const std::size_t at = out.size();
+    out.resize(at + (spaced && !bytes.empty() ? bytes.size() * 3 - 1 : bytes.size() * 2));
+    char* p = out.data() + at;
     for (std::size_t i = 0; i < bytes.size(); ++i) {
-        if (spaced && i > 0) text.push_back(' ');
-        text.push_back(kDigits[bytes[i] >> 4]);
-        text.push_back(kDigits[bytes[i] & 0xFU]);
+        if (spaced && i > 0) *p++ = ' ';
+        *p++ = kDigits[bytes[i] >> 4];
+        *p++ = kDigits[bytes[i] & 0xFU];
     }
+}
+
+std::string hex_bytes(std::span<const std::uint8_t> bytes, bool spaced) {
+    std::string text;
+    append_hex(text, bytes, spaced);
     return text;
 }
 
-std::string seconds_text(Nanos time) {
-    if (!has_time(time)) return {};
+void append_seconds(std::string& out, Nanos time) {
+    if (!has_time(time)) return;
     // Integer arithmetic, rounded to the microsecond: no floating point, no locale.
     const bool negative = time < 0;
     const auto magnitude = static_cast<std::uint64_t>(negative ? -(time + 1) + 1 : time);
     const std::uint64_t micros = (magnitude + 500) / 1000;
-    return fmt::format("{}{}.{:06}", negative ? "-" : "", micros / 1'000'000, micros % 1'000'000);
+    if (negative) out += '-';
+    fmt::format_int whole(micros / 1'000'000);
+    out.append(whole.data(), whole.size());
+    char fraction[7] = {'.'};
+    std::uint64_t rest = micros % 1'000'000;
+    for (int i = 6; i > 0; --i, rest /= 10) fraction[i] = static_cast<char>('0' + rest % 10);
+    out.append(fraction, sizeof fraction);
+}
+
+std::string seconds_text(Nanos time) {
+    std::string text;
+    append_seconds(text, time);
+    return text;
+}
+
+void append_csv_field(std::string& out, std::string_view text) {
+    // Not find_first_of: it calls memchr once per character of the text.
+    const bool plain = std::none_of(text.begin(), text.end(), [](char c) {
+        return c == ',' || c == '"' || c == '\r' || c == '\n';
+    });
+    if (plain) {
+        out += text;
+        return;
+    }
+    out += '"';
+    for (char c : text) {
+        if (c == '"') out += '"';
+        out += c;
+    }
+    out += '"';
 }
 
 std::string csv_field(std::string_view text) {
-    if (text.find_first_of(",\"\r\n") == std::string_view::npos) return std::string(text);
-    std::string field = "\"";
-    for (char c : text) {
-        if (c == '"') field += '"';
-        field += c;
-    }
-    field += '"';
+    std::string field;
+    append_csv_field(field, text);
     return field;
 }
 
-std::string record_summary(const Record& record) {
+void append_summary(std::string& out, const Record& record) {
     if (record.kind == Kind::noise) {
-        return fmt::format("noise, {} byte{}", record.frame.bytes.size(),
-                           record.frame.bytes.size() == 1 ? "" : "s");
+        fmt::format_to(std::back_inserter(out), "noise, {} byte{}", record.frame.bytes.size(),
+                       record.frame.bytes.size() == 1 ? "" : "s");
+        return;
     }
     const DecodedPdu& d = record.decoded;
-    std::string text = d.function_name;
+    out += d.function_name;
     if (!d.summary.empty()) {
-        text += ' ';
-        text += d.summary;
+        out += ' ';
+        out += d.summary;
     }
+}
+
+std::string record_summary(const Record& record) {
+    std::string text;
+    append_summary(text, record);
     return text;
 }
 

@@ -24,6 +24,18 @@ const char* to_string(Kind kind) {
     return "";
 }
 
+void Record::clear() {
+    number = 0;
+    kind = Kind::noise;
+    request_number = 0;
+    latency = kNoTime;
+    request.clear();
+    notes.clear();
+    decoded.clear();
+    profile = nullptr;
+    values.clear();
+}
+
 Transactions::Transactions(TransactionOptions options, Emit emit)
     : options_(options), emit_(std::move(emit)) {}
 
@@ -51,16 +63,28 @@ void Transactions::release() {
     const std::size_t keep_from = awaiting_ ? *awaiting_ : held_.size();
     for (std::size_t i = 0; i < keep_from; ++i) {
         emit_(std::move(held_.front()));
+        // A handful is all the reuse needs (records are held only while a request waits).
+        constexpr std::size_t kSpareRecords = 16;
+        if (spare_.size() < kSpareRecords) spare_.push_back(std::move(held_.front()));
         held_.pop_front();
     }
     if (awaiting_) awaiting_ = 0;
 }
 
-void Transactions::push(Frame&& frame) {
-    Record record;
+Record Transactions::reused_record() {
+    if (spare_.empty()) return {};
+    Record record = std::move(spare_.back());
+    spare_.pop_back();
+    record.clear();
+    return record;
+}
+
+void Transactions::push(const Frame& frame) {
+    Record record = reused_record();
     record.number = next_number_++;
-    record.notes = std::move(frame.notes);
-    record.frame = std::move(frame);
+    record.frame = frame;
+    // The frame's notes open the record's; the record's (empty) list takes their place.
+    record.notes.swap(record.frame.notes);
     const Frame& f = record.frame;
 
     // A request that has waited past the timeout by the time this frame starts.

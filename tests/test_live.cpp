@@ -50,7 +50,7 @@ TEST(LiveFramer, CharErrorIsNotedOnTheFrameItHits) {
     const Bytes read = with_crc({0x01, 0x03, 0x00, 0x00, 0x00, 0x01});
     std::vector<Frame> frames;
     FramerOptions o;
-    Framer framer(o, [&](Frame&& f) { frames.push_back(std::move(f)); });
+    Framer framer(o, [&](const Frame& f) { frames.push_back(f); });
     Chunk chunk;
     chunk.time = 100 * kMs;
     chunk.bytes = read;
@@ -69,7 +69,7 @@ TEST(LiveFramer, AmbiguousFrameIsDecidedWhenTheLineGoesIdle) {
     const Bytes request = with_crc({0x01, 0x03, 0x04, 0x00, 0x00, 0x02});
     std::vector<Frame> frames;
     FramerOptions o;
-    Framer framer(o, [&](Frame&& f) { frames.push_back(std::move(f)); });
+    Framer framer(o, [&](const Frame& f) { frames.push_back(f); });
     const Nanos end = 100 * kMs;
     framer.push(Chunk{end, "", request, 0, {}});
     EXPECT_TRUE(frames.empty());
@@ -95,7 +95,7 @@ TEST(LiveFramer, OnATwoPortTapThePortSaysWhichFramesAreRequests) {
     const Bytes write = with_crc({0x01, 0x06, 0x00, 0x01, 0x00, 0x03});
     std::vector<Frame> frames;
     FramerOptions o;
-    Framer framer(o, [&](Frame&& f) { frames.push_back(std::move(f)); });
+    Framer framer(o, [&](const Frame& f) { frames.push_back(f); });
     framer.push(Chunk{10 * kMs, "slave", write, 0, {}});
     framer.push(Chunk{30 * kMs, "master", write, 0, {}});
     framer.push(Chunk{50 * kMs, "slave", write, 0, {}});

@@ -36,15 +36,24 @@ struct DecodedPdu {
     std::uint8_t exception_code = 0;
     Notes notes;                    // pdu.* diagnostics
     std::vector<DataBlock> blocks;  // register/bit values, when the PDU carries any
+    std::vector<DataBlock> spare_blocks;  // emptied blocks, kept for their buffers
+
+    void clear();  // empties it, keeping the buffers for the next record
 };
 
 // `pdu` is the function code and data (no address, no CRC). `request_pdu` is the PDU of
 // the request this frame answers, empty when unknown (a request, or an unpaired answer).
+// Decodes into `out` (cleared first), reusing its buffers.
+void decode_pdu(std::span<const std::uint8_t> pdu, Role role,
+                std::span<const std::uint8_t> request_pdu, DecodedPdu& out);
 DecodedPdu decode_pdu(std::span<const std::uint8_t> pdu, Role role,
                       std::span<const std::uint8_t> request_pdu = {});
 
 // "Read Holding Registers"; for unknown codes "Function 0x41". fc & 0x80 is ignored.
 std::string function_name(std::uint8_t function);
+void append_function_name(std::string& out, std::uint8_t function);
+// The specification's name, nullptr for codes it does not define.
+const char* standard_function_name(std::uint8_t function);
 // "Illegal Data Address"; nullptr for codes the specification does not define.
 const char* exception_name(std::uint8_t code);
 

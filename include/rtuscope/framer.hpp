@@ -35,7 +35,8 @@ struct FramerOptions {
 
 class Framer {
   public:
-    using Emit = std::function<void(Frame&&)>;
+    // The framer reuses the frame once the call returns: copy what is to be kept.
+    using Emit = std::function<void(const Frame&)>;
 
     Framer(const FramerOptions& options, Emit emit);
 
@@ -73,6 +74,8 @@ class Framer {
     // The first byte after `after` with a gap (>= t3.5) before it, looking at most kMaxAdu
     // bytes ahead; past that, any index beyond a whole ADU (a frame's length bound).
     [[nodiscard]] std::size_t next_gap(std::size_t after) const;
+    // The first byte in (after, limit) with a gap before it, else `limit`.
+    [[nodiscard]] std::size_t gap_after(std::size_t after, std::size_t limit) const;
     [[nodiscard]] bool gap_before(std::size_t at) const;
     void classify_unframed(std::size_t from, std::size_t to);
     // Whether the pairing stage awaits an answer from this slave and function at `at`.
@@ -87,23 +90,40 @@ class Framer {
               Delimiter delimiter, Notes notes);
     void add_timing_notes(Frame& frame, std::size_t at, std::size_t length) const;
 
+    // One pushed chunk: what is known of its bytes' timing. Kept per chunk, not per byte:
+    // with seven per-byte arrays the bookkeeping cost more than the framing.
+    struct Piece {
+        std::uint64_t first = 0;  // stream index of its first byte (base_ + buffer index)
+        Nanos first_start = kNoTime;  // its first byte's estimated start
+        Nanos time = kNoTime;         // its last byte's end (the chunk's time)
+        Nanos gap = kNoTime;          // silence before its first byte; kBoundary at a start
+        int line = 0;
+        std::uint16_t channel = 0;
+        bool exact = false;  // it and the chunk before came alone (per-byte timing)
+    };
+    [[nodiscard]] const Piece& piece_of(std::size_t at) const;
+    [[nodiscard]] std::uint64_t piece_end(const Piece& piece) const;
+    [[nodiscard]] Nanos byte_end(std::size_t at) const;
+    // The silence measured before byte `at`: kNoTime inside a chunk.
+    [[nodiscard]] Nanos gap_at(std::size_t at) const;
+
     FramerOptions options_;
     Emit emit_;
     Nanos char_time_;
     Nanos t15_;
     Nanos t35_;
 
-    // Bytes not yet emitted, from index `pos_` on, with what is known of each byte's timing.
+    // Bytes not yet emitted, from index `pos_` on; bytes_[0] is byte `base_` of the stream.
     std::vector<std::uint8_t> bytes_;
-    std::vector<Nanos> byte_end_;
-    std::vector<Nanos> gap_;   // silence before the byte; kNoTime inside a chunk
-    std::vector<bool> exact_;  // this byte and the one before came alone (per-byte timing)
-    std::vector<std::uint16_t> channel_;
-    std::vector<int> line_;
-    std::vector<bool> char_error_;  // the UART flagged this byte (parity/framing)
+    std::uint64_t base_ = 0;
+    std::vector<Piece> pieces_;  // the chunks the buffered bytes came in, in order
+    mutable std::size_t piece_hint_ = 0;  // where piece_of last looked: lookups go forward
+    // Bytes the UART flagged (parity/framing), as buffer indices. Rare, so sparse.
+    std::vector<std::size_t> char_errors_;
     // Where the input's clock went backwards: the index of the first byte of the chunk
     // whose time was earlier than the byte before it, and by how much. Rare, so sparse.
     std::vector<std::pair<std::size_t, Nanos>> time_jumps_;
+    Frame frame_;  // the record being emitted, reused
     std::size_t pos_ = 0;
     std::size_t scan_hint_ = 0;  // bytes before it are known to start no frame
     std::vector<std::string> channels_;

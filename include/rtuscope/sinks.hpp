@@ -26,12 +26,17 @@ std::unique_ptr<RecordSink> make_values_csv_sink(std::FILE* out);
 // fields and the register values; schema in README.md.
 std::unique_ptr<RecordSink> make_jsonl_sink(std::FILE* out);
 
-// Shared by the sinks: "01 03 00 00" (spaced) or "01030000".
+// Shared by the sinks, each also as append_*: sinks build every line in one reused
+// string, since a temporary string per field was most of the time of a decode.
+// "01 03 00 00" (spaced) or "01030000".
 std::string hex_bytes(std::span<const std::uint8_t> bytes, bool spaced);
+void append_hex(std::string& out, std::span<const std::uint8_t> bytes, bool spaced);
 // Seconds with 6 decimals in the input's timebase ("1763798400.022360"); empty if none.
 std::string seconds_text(Nanos time);
+void append_seconds(std::string& out, Nanos time);
 // An RFC 4180 field: quoted when it holds a comma, a quote or a line break.
 std::string csv_field(std::string_view text);
+void append_csv_field(std::string& out, std::string_view text);
 // A JSON string literal, quotes included (RFC 8259 escapes); bytes that are not UTF-8
 // become U+FFFD, as JSON must be UTF-8.
 std::string json_string(std::string_view text);
@@ -44,5 +49,6 @@ struct RecordFlags {
 RecordFlags record_flags(const Record& record);
 // The one-line description of a record, as in the CSV `summary` column.
 std::string record_summary(const Record& record);
+void append_summary(std::string& out, const Record& record);
 
 }  // namespace rtuscope

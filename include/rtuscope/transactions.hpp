@@ -42,6 +42,10 @@ struct Record {
     DecodedPdu decoded;                 // filled by the decoder stage
     const Profile* profile = nullptr;   // the device's profile, when the bus map has one
     std::vector<DecodedValue> values;   // its register values in the device's words
+
+    // Empties every field but keeps the buffers: records are reused, one per frame
+    // would otherwise cost a dozen allocations.
+    void clear();
 };
 
 struct TransactionOptions {
@@ -51,11 +55,13 @@ struct TransactionOptions {
 
 class Transactions : public AnswerExpectation {
   public:
+    // The record is taken back (and reused) once the call returns; move from it only to
+    // keep it.
     using Emit = std::function<void(Record&&)>;
 
     Transactions(TransactionOptions options, Emit emit);
 
-    void push(Frame&& frame);
+    void push(const Frame& frame);
     // Live input: the time is `now` and nothing came; a request whose timeout has passed
     // is given up on now rather than when the next frame arrives.
     void tick(Nanos now);
@@ -66,11 +72,13 @@ class Transactions : public AnswerExpectation {
   private:
     void give_up_on_request(std::string why);
     void release();
+    Record reused_record();
 
     TransactionOptions options_;
     Emit emit_;
     std::uint64_t next_number_ = 1;
     std::deque<Record> held_;              // the first is the awaited request, if any
+    std::vector<Record> spare_;            // emitted records, their buffers kept for reuse
     std::optional<std::size_t> awaiting_;  // index into held_ of the awaited request
     AwaitedAnswer awaited_;
     Nanos awaited_end_ = kNoTime;

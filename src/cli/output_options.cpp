@@ -3,6 +3,7 @@
 #include <unistd.h>
 
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <tuple>
 
@@ -139,6 +140,10 @@ std::optional<Decoding> prepare_decoding(const OutputArgs& args, int& exit_code)
         *bound = r->first;
         *relative = r->second;
     }
+
+    // A file or a pipe takes the output in large blocks (a terminal keeps its lines); live
+    // runs flush after every record anyway.
+    if (!isatty(STDOUT_FILENO)) std::setvbuf(stdout, nullptr, _IOFBF, std::size_t{1} << 20);
 
     if (args.stats) {
         d.sink = make_stats_sink(stdout, args.csv     ? StatsFormat::csv
