@@ -256,17 +256,29 @@ class CaptureReader final : public ChunkSource {
             i = skip_space(line, e);
         }
         if (i == line.size()) return error_at(e, "no bytes after the timestamp");
-        while (i < line.size()) {
-            const int hi = hex_value(line[i]);
-            const int lo = i + 1 < line.size() ? hex_value(line[i + 1]) : -1;
-            if (hi < 0 || lo < 0 || (i + 2 < line.size() && !is_space(line[i + 2]))) {
+        // Every byte takes two digits and a separator (none after the last): this bounds
+        // the count. The loop works on local pointers: stores through a uint8_t pointer
+        // may alias anything, and made the compiler reload the line's bounds every byte.
+        out.bytes.resize((line.size() - i + 1) / 2);
+        std::uint8_t* const first = out.bytes.data();
+        std::uint8_t* next = first;
+        const char* p = line.data() + i;
+        const char* const end = line.data() + line.size();
+        while (p < end) {
+            const int hi = hex_value(p[0]);
+            const int lo = p + 1 < end ? hex_value(p[1]) : -1;
+            if (hi < 0 || lo < 0 || (p + 2 < end && !is_space(p[2]))) {
+                i = static_cast<std::size_t>(p - line.data());
                 e = token_end(line, i);
+                out.bytes.resize(static_cast<std::size_t>(next - first));
                 return error_at(i,
                                 fmt::format("bad hex byte {}", quote_token(line.substr(i, e - i))));
             }
-            out.bytes.push_back(static_cast<std::uint8_t>(hi << 4 | lo));
-            i = skip_space(line, i + 2);
+            *next++ = static_cast<std::uint8_t>(hi << 4 | lo);
+            p += 2;
+            while (p < end && is_space(*p)) ++p;
         }
+        out.bytes.resize(static_cast<std::size_t>(next - first));
         return true;
     }
 

@@ -2,6 +2,7 @@
 #include <fmt/format.h>
 
 #include "rtuscope/sinks.hpp"
+#include "text_append.hpp"
 
 namespace rtuscope {
 namespace {
@@ -9,6 +10,9 @@ namespace {
 class CsvSink final : public RecordSink {
   public:
     explicit CsvSink(std::FILE* out) : out_(out) {}
+    CsvSink(const CsvSink&) = delete;
+    CsvSink& operator=(const CsvSink&) = delete;
+    ~CsvSink() override { write_out(); }
 
     void begin(const SessionInfo& /*session*/) override {
         std::fputs(
@@ -17,69 +21,83 @@ class CsvSink final : public RecordSink {
     }
 
     void record(const Record& r) override {
-        line_.clear();
         const bool framed = r.kind != Kind::noise;
-        fmt::format_to(std::back_inserter(line_), "{},", r.number);
-        append_seconds(line_, r.frame.start);
-        line_ += ',';
-        if (framed && !r.frame.bytes.empty()) append_int(r.frame.slave());
-        line_ += ',';
-        if (framed && r.frame.bytes.size() >= 2) append_int(r.frame.function());
-        line_ += ',';
-        line_ += to_string(r.kind);
-        line_ += ',';
-        line_ += to_string(r.frame.crc.status);
-        line_ += ',';
-        if (r.request_number != 0) append_int(r.request_number);
-        line_ += ',';
-        if (has_time(r.latency)) {
-            fmt::format_to(std::back_inserter(line_), "{:.3f}",
-                           static_cast<double>(r.latency) / 1e6);
-        }
-        line_ += ',';
-        field_.clear();
-        append_summary(field_, r);
-        append_csv_field(line_, field_);
-        line_ += ',';
-        append_hex(line_, r.frame.bytes, false);
-        line_ += ',';
+        summary_.clear();
+        append_summary(summary_, r);
+        ids_.clear();
+        texts_.clear();
         if (!r.notes.empty() || !r.values.empty()) {
             const RecordFlags flags = record_flags(r);
-            field_.clear();
             for (const std::string& id : flags.ids) {
-                if (!field_.empty()) field_ += ' ';
-                field_ += id;
+                if (!ids_.empty()) ids_ += ' ';
+                ids_ += id;
             }
-            append_csv_field(line_, field_);
-            line_ += ',';
-            field_.clear();
             for (const std::string& text : flags.texts) {
-                if (!field_.empty()) field_ += "; ";
-                field_ += text;
+                if (!texts_.empty()) texts_ += "; ";
+                texts_ += text;
             }
-            append_csv_field(line_, field_);
-        } else {
-            line_ += ',';
         }
-        line_ += '\n';
-        std::fwrite(line_.data(), 1, line_.size(), out_);
+        // Numbers, time, kind, CRC, latency and commas fit in kFixedChars; quoting at most
+        // doubles a field and adds two quotes.
+        constexpr std::size_t kFixedChars = 4 * kMaxUintChars + kMaxSecondsChars + 80;
+        const std::size_t bound = kFixedChars + 2 * r.frame.bytes.size() + 2 * summary_.size() +
+                                  2 * ids_.size() + 2 * texts_.size() + 6;
+        append_with(line_, bound, [&](char* p) {
+            p = write_uint(p, r.number);
+            *p++ = ',';
+            p = write_seconds(p, r.frame.start);
+            *p++ = ',';
+            if (framed && !r.frame.bytes.empty()) p = write_uint(p, r.frame.slave());
+            *p++ = ',';
+            if (framed && r.frame.bytes.size() >= 2) p = write_uint(p, r.frame.function());
+            *p++ = ',';
+            p = write_text(p, to_string(r.kind));
+            *p++ = ',';
+            p = write_text(p, to_string(r.frame.crc.status));
+            *p++ = ',';
+            if (r.request_number != 0) p = write_uint(p, r.request_number);
+            *p++ = ',';
+            if (has_time(r.latency)) {
+                p = fmt::format_to(p, "{:.3f}", static_cast<double>(r.latency) / 1e6);
+            }
+            *p++ = ',';
+            p = write_csv_field(p, summary_);
+            *p++ = ',';
+            p = write_hex(p, r.frame.bytes, false);
+            *p++ = ',';
+            p = write_csv_field(p, ids_);
+            *p++ = ',';
+            p = write_csv_field(p, texts_);
+            *p++ = '\n';
+            return p;
+        });
+        // Rows go out in blocks; flush() (per record when live) and end() send the rest.
+        if (line_.size() >= kBlockBytes) write_out();
     }
 
-    void flush() override { std::fflush(out_); }
-
-    void end(const Totals& /*totals*/, const std::vector<std::string>& /*remarks*/) override {
+    void flush() override {
+        write_out();
         std::fflush(out_);
     }
 
+    void end(const Totals& /*totals*/, const std::vector<std::string>& /*remarks*/) override {
+        flush();
+    }
+
   private:
-    void append_int(std::uint64_t value) {
-        const fmt::format_int text(value);
-        line_.append(text.data(), text.size());
+    static constexpr std::size_t kBlockBytes = std::size_t{64} << 10;
+
+    void write_out() {
+        std::fwrite(line_.data(), 1, line_.size(), out_);
+        line_.clear();
     }
 
     std::FILE* out_;
-    std::string line_;   // the row being built, reused
-    std::string field_;  // one field before quoting, reused
+    std::string line_;  // rows not yet written
+    // Fields that may need quoting, built before they are written; all reused.
+    std::string summary_;
+    std::string ids_;
+    std::string texts_;
 };
 
 }  // namespace

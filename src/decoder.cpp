@@ -24,6 +24,8 @@
 #include <string_view>
 #include <utility>
 
+#include "text_append.hpp"
+
 namespace rtuscope {
 namespace {
 
@@ -85,12 +87,6 @@ std::string counted(std::size_t n, std::string_view one, std::string_view many) 
 
 // Summaries are built by appending to the record's reused string: the decoder runs once
 // per frame, and a temporary string per field was most of its time.
-void append_hex4(std::string& s, std::uint16_t value) {
-    static constexpr char kDigits[] = "0123456789ABCDEF";
-    const char text[6] = {'0', 'x', kDigits[value >> 12], kDigits[(value >> 8) & 0xFU],
-                          kDigits[(value >> 4) & 0xFU], kDigits[value & 0xFU]};
-    s.append(text, sizeof text);
-}
 
 void append_word_list(std::string& s, std::span<const std::uint16_t> values) {
     const std::size_t listed = std::min(values.size(), kListedWords);
@@ -120,7 +116,9 @@ void append_bit_list(std::string& s, std::span<const std::uint16_t> bits) {
 // "2 registers: 0x1818 0x0000", "0 registers"
 void append_listed(std::string& s, std::span<const std::uint16_t> values, std::string_view one,
                    std::string_view many, bool as_bits) {
-    fmt::format_to(std::back_inserter(s), "{} {}", values.size(), values.size() == 1 ? one : many);
+    append_uint(s, values.size());
+    s += ' ';
+    s += values.size() == 1 ? one : many;
     if (values.empty()) return;
     s += ": ";
     if (as_bits) {
@@ -301,7 +299,10 @@ std::optional<Range> asked_range(const Decoder& d) {
 void append_range(std::string& s, std::optional<std::uint16_t> start,
                   std::optional<std::uint16_t> qty) {
     if (start) append_hex4(s, *start);
-    if (qty) fmt::format_to(std::back_inserter(s), "{}x{}", start ? " " : "", *qty);
+    if (qty) {
+        s += start ? " x" : "x";
+        append_uint(s, *qty);
+    }
 }
 
 std::string range_text(std::optional<std::uint16_t> start, std::optional<std::uint16_t> qty) {
@@ -440,7 +441,9 @@ void append_single_register(std::string& s, Bytes b) {
     if (value) {
         s += address ? " = " : "= ";
         append_hex4(s, *value);
-        fmt::format_to(std::back_inserter(s), " ({})", *value);
+        s += " (";
+        append_uint(s, *value);
+        s += ')';
     }
 }
 

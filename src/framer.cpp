@@ -116,9 +116,9 @@ void Framer::finish() {
     decide(true);
 }
 
-const Framer::Piece& Framer::piece_of(std::size_t at) const {
+const Framer::Piece& Framer::find_piece(std::size_t at) const {
     const std::uint64_t index = base_ + at;
-    // Most lookups are at or just after the previous one.
+    // Most lookups are just after the previous one.
     std::size_t i = piece_hint_ < pieces_.size() ? piece_hint_ : 0;
     if (pieces_[i].first > index) i = 0;
     for (std::size_t steps = 0; i + 1 < pieces_.size() && pieces_[i + 1].first <= index; ++i) {
@@ -212,7 +212,9 @@ Framer::Attempt Framer::attempt_at(std::size_t at, bool at_end) const {
     bool pending = false;
     Attempt best;
     auto better = [&](const Attempt& a, const Attempt& b, bool a_gap, bool b_gap) {
-        if ((a.crc == CrcStatus::ok) != (b.crc == CrcStatus::ok)) return a.crc == CrcStatus::ok;
+        if ((a.crc.status == CrcStatus::ok) != (b.crc.status == CrcStatus::ok)) {
+            return a.crc.status == CrcStatus::ok;
+        }
         const bool a_pref = (a.reading != Reading::request) == prefer_response;
         const bool b_pref = (b.reading != Reading::request) == prefer_response;
         if (a_pref != b_pref) return a_pref;
@@ -243,8 +245,8 @@ Framer::Attempt Framer::attempt_at(std::size_t at, bool at_end) const {
                     continue;
                 }
                 candidate.length = length.bytes;
-                candidate.crc = check_crc(head.first(length.bytes)).status;
-                if (candidate.crc == CrcStatus::bad) continue;
+                candidate.crc = check_crc(head.first(length.bytes));
+                if (candidate.crc.status == CrcStatus::bad) continue;
                 candidate.delimiter = Delimiter::length_crc;
                 break;
             }
@@ -257,7 +259,7 @@ Framer::Attempt Framer::attempt_at(std::size_t at, bool at_end) const {
                 if (found.pending) pending = true;
                 if (found.length == 0) continue;
                 candidate.length = found.length;
-                candidate.crc = CrcStatus::ok;
+                candidate.crc = check_crc(head.first(found.length));
                 candidate.delimiter = Delimiter::crc_search;
                 // Order, not shape, tells which way these go.
                 candidate.reading =
@@ -352,7 +354,7 @@ void Framer::decide(bool at_end) {
             if (here.delimiter == Delimiter::crc_search) {
                 notes.push_back({note_id::unknown_length, "length found by CRC"});
             }
-            emit(pos_, here.length, RecordClass::frame, here.reading, here.delimiter,
+            emit(pos_, here.length, RecordClass::frame, here.reading, here.delimiter, here.crc,
                  std::move(notes));
             continue;
         }
@@ -438,14 +440,14 @@ void Framer::classify_unframed(std::size_t from, std::size_t to) {
             const Reading shape = reading_by_shape(piece, byte_end(start), false);
             if (crc.status != CrcStatus::bad) {
                 // CRC right but the length disagrees with the function code.
-                emit(start, n, RecordClass::frame, shape, Delimiter::gap,
+                emit(start, n, RecordClass::frame, shape, Delimiter::gap, crc,
                      {{note_id::malformed, "length does not fit its function code"}});
                 start = end;
                 continue;
             }
             if (shape != Reading::unknown) {
                 emit(start, n, RecordClass::invalid, shape,
-                     bounded_by_gaps ? Delimiter::gap : Delimiter::length_crc, {});
+                     bounded_by_gaps ? Delimiter::gap : Delimiter::length_crc, crc, {});
                 start = end;
                 continue;
             }
@@ -454,7 +456,7 @@ void Framer::classify_unframed(std::size_t from, std::size_t to) {
             start = end;
             continue;
         }
-        emit(start, n, RecordClass::noise, Reading::unknown, Delimiter::gap, {});
+        emit(start, n, RecordClass::noise, Reading::unknown, Delimiter::gap, {}, {});
         start = end;
     }
 }
@@ -467,7 +469,7 @@ bool Framer::emit_if_truncated(std::size_t at, std::size_t n) {
                             answer_first ? Role::request : Role::response}) {
         const FrameLength length = options_.rules->frame_length(piece, role);
         if (length.kind == FrameLength::Kind::fixed && length.bytes > n) {
-            emit(at, n, RecordClass::invalid, reading_for(role, piece[1]), Delimiter::gap,
+            emit(at, n, RecordClass::invalid, reading_for(role, piece[1]), Delimiter::gap, {},
                  {{note_id::truncated, fmt::format("cut short: {} of {} bytes", n, length.bytes)}});
             return true;
         }
@@ -510,7 +512,7 @@ void Framer::emit_chunk_as_frame(const Chunk& chunk) {
 }
 
 void Framer::emit(std::size_t at, std::size_t length, RecordClass cls, Reading reading,
-                  Delimiter delimiter, Notes notes) {
+                  Delimiter delimiter, CrcCheck crc, Notes notes) {
     Frame& frame = frame_;
     frame.bytes.assign(bytes_.begin() + static_cast<std::ptrdiff_t>(at),
                        bytes_.begin() + static_cast<std::ptrdiff_t>(at + length));
@@ -518,7 +520,7 @@ void Framer::emit(std::size_t at, std::size_t length, RecordClass cls, Reading r
     frame.cls = cls;
     frame.reading = reading;
     frame.delimiter = delimiter;
-    frame.crc = cls != RecordClass::noise ? check_crc(frame.bytes) : CrcCheck{};
+    frame.crc = crc;
     const Nanos first_end = byte_end(at);
     frame.start = has_time(first_end) ? first_end - char_time_ : kNoTime;
     frame.end = byte_end(at + length - 1);
@@ -527,10 +529,9 @@ void Framer::emit(std::size_t at, std::size_t length, RecordClass cls, Reading r
     const Piece& piece = piece_of(at);
     frame.channel = channels_[piece.channel];
     frame.source_line = piece.line;
-    // A frame cut short has no CRC to be wrong.
+    // A frame cut short has no CRC to be wrong (its caller passes none).
     const bool cut_short =
         !notes.empty() && std::string_view(notes.front().id) == note_id::truncated;
-    if (cut_short) frame.crc = {};
     if (cls != RecordClass::noise && !cut_short) add_crc_note(frame);
     frame.notes.insert(frame.notes.end(), notes.begin(), notes.end());
     if (cls != RecordClass::noise) add_timing_notes(frame, at, length);

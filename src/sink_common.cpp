@@ -3,19 +3,12 @@
 #include <algorithm>
 
 #include "rtuscope/sinks.hpp"
+#include "text_append.hpp"
 
 namespace rtuscope {
 
 void append_hex(std::string& out, std::span<const std::uint8_t> bytes, bool spaced) {
-    static constexpr char kDigits[] = "0123456789ABCDEF";
-    const std::size_t at = out.size();
-    out.resize(at + (spaced && !bytes.empty() ? bytes.size() * 3 - 1 : bytes.size() * 2));
-    char* p = out.data() + at;
-    for (std::size_t i = 0; i < bytes.size(); ++i) {
-        if (spaced && i > 0) *p++ = ' ';
-        *p++ = kDigits[bytes[i] >> 4];
-        *p++ = kDigits[bytes[i] & 0xFU];
-    }
+    append_with(out, 3 * bytes.size(), [&](char* p) { return write_hex(p, bytes, spaced); });
 }
 
 std::string hex_bytes(std::span<const std::uint8_t> bytes, bool spaced) {
@@ -25,18 +18,7 @@ std::string hex_bytes(std::span<const std::uint8_t> bytes, bool spaced) {
 }
 
 void append_seconds(std::string& out, Nanos time) {
-    if (!has_time(time)) return;
-    // Integer arithmetic, rounded to the microsecond: no floating point, no locale.
-    const bool negative = time < 0;
-    const auto magnitude = static_cast<std::uint64_t>(negative ? -(time + 1) + 1 : time);
-    const std::uint64_t micros = (magnitude + 500) / 1000;
-    if (negative) out += '-';
-    fmt::format_int whole(micros / 1'000'000);
-    out.append(whole.data(), whole.size());
-    char fraction[7] = {'.'};
-    std::uint64_t rest = micros % 1'000'000;
-    for (int i = 6; i > 0; --i, rest /= 10) fraction[i] = static_cast<char>('0' + rest % 10);
-    out.append(fraction, sizeof fraction);
+    append_with(out, kMaxSecondsChars, [&](char* p) { return write_seconds(p, time); });
 }
 
 std::string seconds_text(Nanos time) {
@@ -46,20 +28,7 @@ std::string seconds_text(Nanos time) {
 }
 
 void append_csv_field(std::string& out, std::string_view text) {
-    // Not find_first_of: it calls memchr once per character of the text.
-    const bool plain = std::none_of(text.begin(), text.end(), [](char c) {
-        return c == ',' || c == '"' || c == '\r' || c == '\n';
-    });
-    if (plain) {
-        out += text;
-        return;
-    }
-    out += '"';
-    for (char c : text) {
-        if (c == '"') out += '"';
-        out += c;
-    }
-    out += '"';
+    append_with(out, 2 * text.size() + 2, [&](char* p) { return write_csv_field(p, text); });
 }
 
 std::string csv_field(std::string_view text) {

@@ -2,6 +2,8 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
+
 namespace rtuscope {
 
 const char* to_string(Kind kind) {
@@ -49,7 +51,7 @@ const AwaitedAnswer* Transactions::awaited(Nanos at) const {
 
 void Transactions::give_up_on_request(std::string why) {
     if (!awaiting_) return;
-    Record& request = held_[*awaiting_];
+    Record& request = held(*awaiting_);
     if (!options_.rules->answers_errors(request.frame.slave())) {
         why += " (this device answers errors with silence)";
     }
@@ -60,27 +62,31 @@ void Transactions::give_up_on_request(std::string why) {
 
 // Everything before the awaited request, or everything when none is awaited, is final.
 void Transactions::release() {
-    const std::size_t keep_from = awaiting_ ? *awaiting_ : held_.size();
+    const std::size_t keep_from = awaiting_ ? *awaiting_ : count_;
     for (std::size_t i = 0; i < keep_from; ++i) {
-        emit_(std::move(held_.front()));
-        // A handful is all the reuse needs (records are held only while a request waits).
-        constexpr std::size_t kSpareRecords = 16;
-        if (spare_.size() < kSpareRecords) spare_.push_back(std::move(held_.front()));
-        held_.pop_front();
+        emit_(std::move(held(0)));
+        head_ = (head_ + 1) % ring_.size();
+        --count_;
     }
     if (awaiting_) awaiting_ = 0;
 }
 
-Record Transactions::reused_record() {
-    if (spare_.empty()) return {};
-    Record record = std::move(spare_.back());
-    spare_.pop_back();
+Record& Transactions::next_slot() {
+    if (count_ == ring_.size()) {
+        std::vector<Record> bigger(std::max<std::size_t>(16, 2 * ring_.size()));
+        for (std::size_t i = 0; i < count_; ++i) bigger[i] = std::move(held(i));
+        ring_ = std::move(bigger);
+        head_ = 0;
+    }
+    Record& record = held(count_);
     record.clear();
     return record;
 }
 
 void Transactions::push(const Frame& frame) {
-    Record record = reused_record();
+    // Filled in place; held (counted) at the end. Releasing older records on the way
+    // leaves the slot where it is: head_ + count_ does not change.
+    Record& record = next_slot();
     record.number = next_number_++;
     record.frame = frame;
     // The frame's notes open the record's; the record's (empty) list takes their place.
@@ -124,7 +130,7 @@ void Transactions::push(const Frame& frame) {
                             (invalid && f.reading == Reading::request);
     if (is_answer) {
         if (matches_awaited) {
-            Record& request = held_[*awaiting_];
+            Record& request = held(*awaiting_);
             record.request_number = request.number;
             record.request = request.frame.bytes;
             // Inside a chunk the answer's start is a guess: no turnaround then.
@@ -158,10 +164,10 @@ void Transactions::push(const Frame& frame) {
     const bool awaits = (record.kind == Kind::request ||
                          (invalid && is_request && !options_.rules->is_broadcast(f.slave()))) &&
                         options_.rules->expects_answer(f.slave(), f.function());
-    held_.push_back(std::move(record));
+    ++count_;
     if (awaits) {
-        awaiting_ = held_.size() - 1;
-        const Frame& request = held_.back().frame;
+        awaiting_ = count_ - 1;
+        const Frame& request = record.frame;
         awaited_ = {request.slave(), request.function(), request.bytes};
         awaited_end_ = request.end;
     }

@@ -302,5 +302,40 @@ TEST(Framer, EveryByteInExactlyOneRecord) {
     }
 }
 
+// Large USB batches: the framer keeps each chunk's timing once (not per byte) and drops
+// decided bytes as it goes, so times and input lines must come out right across many
+// chunks and across the points where the buffer is compacted (every 64 KiB).
+TEST(Framer, TimesAndLinesStayRightAcrossLargeChunksAndBufferCompaction) {
+    constexpr std::size_t kFrames = 20000;  // 160 000 bytes
+    Bytes all;
+    for (std::size_t i = 0; i < kFrames; ++i) all.insert(all.end(), kRead.begin(), kRead.end());
+    const Nanos ch = Line().char_time();
+    // Back to back, handed over 7001 and 3 bytes at a time (frames straddle chunks),
+    // each chunk timed at its last byte's end and numbered as a line of its own.
+    std::vector<Chunk> chunks;
+    std::vector<int> line_of_byte;
+    std::size_t n = 0;
+    for (std::size_t at = 0; at < all.size(); at += n) {
+        n = n == 7001 ? 3 : 7001;
+        const std::size_t end = std::min(all.size(), at + n);
+        const int line = static_cast<int>(chunks.size()) + 1;
+        chunks.push_back({static_cast<Nanos>(end) * ch, "",
+                          Bytes(all.begin() + static_cast<std::ptrdiff_t>(at),
+                                all.begin() + static_cast<std::ptrdiff_t>(end)),
+                          line, {}});
+        line_of_byte.insert(line_of_byte.end(), end - at, line);
+    }
+    Harness h;
+    const auto& r = h.run(chunks);
+    ASSERT_EQ(r.size(), kFrames);
+    for (std::size_t i = 0; i < kFrames; ++i) {
+        const std::size_t first = i * kRead.size();
+        ASSERT_EQ(r[i].frame.bytes, kRead) << "record " << i;
+        ASSERT_EQ(r[i].frame.start, static_cast<Nanos>(first) * ch) << "record " << i;
+        ASSERT_EQ(r[i].frame.end, static_cast<Nanos>(first + kRead.size()) * ch) << "record " << i;
+        ASSERT_EQ(r[i].frame.source_line, line_of_byte[first]) << "record " << i;
+    }
+}
+
 }  // namespace
 }  // namespace rtuscope

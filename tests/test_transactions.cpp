@@ -159,5 +159,33 @@ TEST(Transactions, AnswerFromAnotherSlaveIsUnsolicited) {
     EXPECT_EQ(r[2].request_number, 2U);
 }
 
+// Records wait while a request does (they must leave in stream order) and are reused
+// once emitted: many records held at once must keep their order and contents, and the
+// awaited request its bytes.
+TEST(Transactions, ManyRecordsHeldBehindAnAwaitedRequestKeepOrderAndContents) {
+    constexpr std::size_t kNoiseRuns = 100;
+    Line line;
+    line.silence(10).send_per_byte(kRead);
+    for (std::size_t i = 0; i < kNoiseRuns; ++i) {
+        line.silence(5).send_per_byte({static_cast<std::uint8_t>(i), 0xFF});
+    }
+    line.silence(5).send_per_byte(kReadAnswer).silence(5).send_per_byte(kWrite);
+    Harness h;
+    const auto& r = h.run(line.chunks());
+    ASSERT_EQ(r.size(), kNoiseRuns + 3);
+    for (std::size_t i = 0; i < r.size(); ++i) EXPECT_EQ(r[i].number, i + 1);
+    EXPECT_EQ(r[0].kind, Kind::request);
+    EXPECT_EQ(r[0].frame.bytes, kRead);
+    for (std::size_t i = 0; i < kNoiseRuns; ++i) {
+        EXPECT_EQ(r[i + 1].kind, Kind::noise);
+        EXPECT_EQ(r[i + 1].frame.bytes, Bytes({static_cast<std::uint8_t>(i), 0xFF}));
+    }
+    EXPECT_EQ(r[kNoiseRuns + 1].kind, Kind::response);
+    EXPECT_EQ(r[kNoiseRuns + 1].request_number, 1U);
+    EXPECT_EQ(r[kNoiseRuns + 1].request, kRead);
+    EXPECT_EQ(r[kNoiseRuns + 2].kind, Kind::request);
+    EXPECT_EQ(r[kNoiseRuns + 2].frame.bytes, kWrite);
+}
+
 }  // namespace
 }  // namespace rtuscope

@@ -57,7 +57,7 @@ class Framer {
         std::size_t length = 0;
         Reading reading = Reading::unknown;
         Delimiter delimiter = Delimiter::length_crc;
-        CrcStatus crc = CrcStatus::none;
+        CrcCheck crc;
     };
 
     struct Search {
@@ -86,8 +86,9 @@ class Framer {
                                            bool any_length_fits_search) const;
     bool emit_if_truncated(std::size_t at, std::size_t n);
     void emit_chunk_as_frame(const Chunk& chunk);
+    // `crc`: the check the caller made (none for noise and for frames cut short).
     void emit(std::size_t at, std::size_t length, RecordClass cls, Reading reading,
-              Delimiter delimiter, Notes notes);
+              Delimiter delimiter, CrcCheck crc, Notes notes);
     void add_timing_notes(Frame& frame, std::size_t at, std::size_t length) const;
 
     // One pushed chunk: what is known of its bytes' timing. Kept per chunk, not per byte:
@@ -101,7 +102,18 @@ class Framer {
         std::uint16_t channel = 0;
         bool exact = false;  // it and the chunk before came alone (per-byte timing)
     };
-    [[nodiscard]] const Piece& piece_of(std::size_t at) const;
+    // The chunk byte `at` came in. Asked several times per frame, mostly for the chunk
+    // asked last, so that case is inline.
+    [[nodiscard]] const Piece& piece_of(std::size_t at) const {
+        const std::uint64_t index = base_ + at;
+        const std::size_t i = piece_hint_;
+        if (i < pieces_.size() && pieces_[i].first <= index &&
+            (i + 1 == pieces_.size() || pieces_[i + 1].first > index)) {
+            return pieces_[i];
+        }
+        return find_piece(at);
+    }
+    [[nodiscard]] const Piece& find_piece(std::size_t at) const;
     [[nodiscard]] std::uint64_t piece_end(const Piece& piece) const;
     [[nodiscard]] Nanos byte_end(std::size_t at) const;
     // The silence measured before byte `at`: kNoTime inside a chunk.

@@ -5,7 +5,6 @@
 #pragma once
 
 #include <cstdint>
-#include <deque>
 #include <functional>
 #include <optional>
 #include <string>
@@ -72,14 +71,20 @@ class Transactions : public AnswerExpectation {
   private:
     void give_up_on_request(std::string why);
     void release();
-    Record reused_record();
+    // The i-th held record, oldest first.
+    Record& held(std::size_t i) { return ring_[(head_ + i) % ring_.size()]; }
+    // The slot after the held records, emptied; it joins them when count_ grows.
+    Record& next_slot();
 
     TransactionOptions options_;
     Emit emit_;
     std::uint64_t next_number_ = 1;
-    std::deque<Record> held_;              // the first is the awaited request, if any
-    std::vector<Record> spare_;            // emitted records, their buffers kept for reuse
-    std::optional<std::size_t> awaiting_;  // index into held_ of the awaited request
+    // Records held back, in a ring: a slot is reused (its buffers too) once its record is
+    // emitted, so records are neither allocated nor moved per frame.
+    std::vector<Record> ring_;
+    std::size_t head_ = 0;   // the oldest held record's slot
+    std::size_t count_ = 0;  // how many are held; the first is the awaited request, if any
+    std::optional<std::size_t> awaiting_;  // index (from the oldest) of the awaited request
     AwaitedAnswer awaited_;
     Nanos awaited_end_ = kNoTime;
     // The request answered last, until the next request: a second answer to it means

@@ -1,0 +1,99 @@
+// Writing numbers and bytes as text without format strings or per-character appends. The
+// decoder and the sinks run once per frame; parsing "{}" and calling std::string's
+// out-of-line push_back for every character were most of a decode's time in profiles.
+// The write_* functions write at `p`, which must have room for their bound, and return
+// the end of what they wrote.
+#pragma once
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cstdint>
+#include <cstring>
+#include <span>
+#include <string>
+#include <string_view>
+
+#include "rtuscope/time.hpp"
+
+namespace rtuscope {
+
+inline constexpr std::size_t kMaxUintChars = 20;
+
+inline char* write_uint(char* p, std::uint64_t value) {
+    const fmt::format_int text(value);
+    std::memcpy(p, text.data(), text.size());
+    return p + text.size();
+}
+
+inline char* write_text(char* p, std::string_view text) {
+    std::memcpy(p, text.data(), text.size());
+    return p + text.size();
+}
+
+// Two digits per byte, and a space between bytes when `spaced`: at most 3 per byte.
+inline char* write_hex(char* p, std::span<const std::uint8_t> bytes, bool spaced) {
+    static constexpr char kDigits[] = "0123456789ABCDEF";
+    for (std::size_t i = 0; i < bytes.size(); ++i) {
+        if (spaced && i > 0) *p++ = ' ';
+        *p++ = kDigits[bytes[i] >> 4];
+        *p++ = kDigits[bytes[i] & 0xFU];
+    }
+    return p;
+}
+
+// Seconds with 6 decimals, rounded to the microsecond ("1763798400.022360"), nothing
+// without a time; at most 28 characters. Integer arithmetic: no floating point, no locale.
+inline constexpr std::size_t kMaxSecondsChars = 28;
+inline char* write_seconds(char* p, Nanos time) {
+    if (!has_time(time)) return p;
+    const bool negative = time < 0;
+    const auto magnitude = static_cast<std::uint64_t>(negative ? -(time + 1) + 1 : time);
+    const std::uint64_t micros = (magnitude + 500) / 1000;
+    if (negative) *p++ = '-';
+    p = write_uint(p, micros / 1'000'000);
+    *p++ = '.';
+    std::uint64_t rest = micros % 1'000'000;
+    for (int i = 5; i >= 0; --i, rest /= 10) p[i] = static_cast<char>('0' + rest % 10);
+    return p + 6;
+}
+
+// An RFC 4180 field, quoted when it holds a comma, a quote or a line break; at most
+// 2 * size + 2 characters.
+inline char* write_csv_field(char* p, std::string_view text) {
+    const bool plain = std::none_of(text.begin(), text.end(), [](char c) {
+        return c == ',' || c == '"' || c == '\r' || c == '\n';
+    });
+    if (plain) return write_text(p, text);
+    *p++ = '"';
+    for (const char c : text) {
+        if (c == '"') *p++ = '"';
+        *p++ = c;
+    }
+    *p++ = '"';
+    return p;
+}
+
+// Appends through one of the writers above: room for `bound` characters, then trimmed.
+template <typename Write>
+void append_with(std::string& out, std::size_t bound, Write write) {
+    const std::size_t at = out.size();
+    out.resize(at + bound);
+    char* const end = write(out.data() + at);
+    out.resize(static_cast<std::size_t>(end - out.data()));
+}
+
+inline void append_uint(std::string& out, std::uint64_t value) {
+    const fmt::format_int text(value);
+    out.append(text.data(), text.size());
+}
+
+// "0x1A2B"
+inline void append_hex4(std::string& out, std::uint16_t value) {
+    static constexpr char kDigits[] = "0123456789ABCDEF";
+    const char text[6] = {'0', 'x', kDigits[value >> 12], kDigits[(value >> 8) & 0xFU],
+                          kDigits[(value >> 4) & 0xFU], kDigits[value & 0xFU]};
+    out.append(text, sizeof text);
+}
+
+}  // namespace rtuscope
