@@ -13,11 +13,11 @@ namespace {
 constexpr Nanos kAbsoluteFrom = 1'000'000'000 * kNanosPerSecond;
 constexpr std::size_t kNoiseBytesShown = 16;
 
-std::string time_of_day(Nanos time) {
+void append_time_of_day(std::string& out, Nanos time) {
     const std::uint64_t micros = (static_cast<std::uint64_t>(time) + 500) / 1000;
     const std::uint64_t seconds = micros / 1'000'000 % 86'400;
-    return fmt::format("{:02}:{:02}:{:02}.{:06}", seconds / 3600, seconds / 60 % 60, seconds % 60,
-                       micros % 1'000'000);
+    fmt::format_to(std::back_inserter(out), "{:02}:{:02}:{:02}.{:06}", seconds / 3600,
+                   seconds / 60 % 60, seconds % 60, micros % 1'000'000);
 }
 
 const char* arrow(const Record& r) {
@@ -42,6 +42,9 @@ const char* arrow(const Record& r) {
 class TextSink final : public RecordSink {
   public:
     TextSink(std::FILE* out, TextOptions options) : out_(out), options_(options) {}
+    TextSink(const TextSink&) = delete;
+    TextSink& operator=(const TextSink&) = delete;
+    ~TextSink() override { write_out(); }
 
     void begin(const SessionInfo& s) override {
         const LineSettings& line = s.line;
@@ -52,32 +55,49 @@ class TextSink final : public RecordSink {
     }
 
     void record(const Record& r) override {
-        std::string line = fmt::format("{:>5} {:>15}  ", r.number, time_column(r.frame.start));
+        std::string& line = line_;
+        const std::size_t line_start = line.size();
+        auto out = std::back_inserter(line);
+        time_text_.clear();
+        append_time_column(time_text_, r.frame.start);
+        fmt::format_to(out, "{:>5} {:>15}  ", r.number, time_text_);
         const bool framed = r.kind != Kind::noise;
-        line += framed ? fmt::format("{:>3} ", r.frame.slave()) : std::string("    ");
-        line += paint(arrow(r), colour_of(r));
+        if (framed) {
+            fmt::format_to(out, "{:>3} ", r.frame.slave());
+        } else {
+            line += "    ";
+        }
+        append_painted(line, arrow(r), colour_of(r));
         line += ' ';
 
-        std::string function;
-        std::string summary;
+        std::string_view function;
+        std::string_view summary;
         if (framed) {
             function = r.decoded.function_name;
             summary = r.decoded.summary;
         } else {
-            function = record_summary(r);
+            noise_function_.clear();
+            append_summary(noise_function_, r);
+            function = noise_function_;
             const auto shown = std::min(r.frame.bytes.size(), kNoiseBytesShown);
-            summary = hex_bytes(std::span(r.frame.bytes).first(shown), true);
-            if (shown < r.frame.bytes.size()) summary += " ...";
+            noise_summary_.clear();
+            append_hex(noise_summary_, std::span(r.frame.bytes).first(shown), true);
+            if (shown < r.frame.bytes.size()) noise_summary_ += " ...";
+            summary = noise_summary_;
         }
-        line += paint(fmt::format("{:<30}", function), colour_of(r));
+        if (options_.color && colour_of(r) != fmt::terminal_color::white) {
+            append_painted(line, fmt::format("{:<30}", function), colour_of(r));
+        } else {
+            fmt::format_to(out, "{:<30}", function);
+        }
         line += ' ';
         line += summary;
         if (r.kind == Kind::broadcast) line += "  (broadcast, no answer expected)";
         if (has_time(r.latency)) {
-            line += fmt::format("  {:.2f} ms after #{}", static_cast<double>(r.latency) / 1e6,
-                                r.request_number);
+            fmt::format_to(out, "  {:.2f} ms after #{}", static_cast<double>(r.latency) / 1e6,
+                           r.request_number);
         } else if (r.request_number != 0) {
-            line += fmt::format("  answers #{}", r.request_number);
+            fmt::format_to(out, "  answers #{}", r.request_number);
         }
         if (!r.notes.empty()) {
             std::string notes = "! ";
@@ -86,22 +106,29 @@ class TextSink final : public RecordSink {
                 notes += r.notes[i].text;
             }
             line += "  ";
-            line += paint(notes, fmt::terminal_color::yellow);
+            append_painted(line, notes, fmt::terminal_color::yellow);
         }
         // Trailing spaces come from padding a short last column.
-        while (!line.empty() && line.back() == ' ') line.pop_back();
+        while (line.size() > line_start && line.back() == ' ') line.pop_back();
         line += '\n';
         if (options_.hex && framed) {
-            line += fmt::format("{:>28}{}\n", "", hex_bytes(r.frame.bytes, true));
+            fmt::format_to(out, "{:>28}", "");
+            append_hex(line, r.frame.bytes, true);
+            line += '\n';
         }
         append_values(line, r.values);
-        std::fwrite(line.data(), 1, line.size(), out_);
+        // Lines go out in blocks; flush() (per record when live) and end() send the rest.
+        if (line.size() >= kBlockBytes) write_out();
         if (has_time(r.frame.start)) previous_ = r.frame.start;
     }
 
-    void flush() override { std::fflush(out_); }
+    void flush() override {
+        write_out();
+        std::fflush(out_);
+    }
 
     void end(const Totals& t, const std::vector<std::string>& remarks) override {
+        write_out();
         fmt::print(out_,
                    "-- {} records, {} bytes: {} requests, {} answers, {} exceptions, "
                    "{} broadcasts, {} unknown, {} invalid, {} noise bytes in {} runs\n",
@@ -156,18 +183,27 @@ class TextSink final : public RecordSink {
         }
     }
 
-    std::string time_column(Nanos time) {
-        if (!has_time(time)) return "-";
+    void append_time_column(std::string& out, Nanos time) {
+        if (!has_time(time)) {
+            out += '-';
+            return;
+        }
         if (!has_time(first_)) first_ = time;
         switch (options_.time_format) {
             case TimeFormat::absolute:
-                return time >= kAbsoluteFrom ? time_of_day(time) : seconds_text(time);
+                if (time >= kAbsoluteFrom) {
+                    append_time_of_day(out, time);
+                } else {
+                    append_seconds(out, time);
+                }
+                return;
             case TimeFormat::relative:
-                return seconds_text(time - first_);
+                append_seconds(out, time - first_);
+                return;
             case TimeFormat::delta:
-                return seconds_text(has_time(previous_) ? time - previous_ : 0);
+                append_seconds(out, has_time(previous_) ? time - previous_ : 0);
+                return;
         }
-        return "-";
     }
 
     static fmt::terminal_color colour_of(const Record& r) {
@@ -189,8 +225,29 @@ class TextSink final : public RecordSink {
         return fmt::format("{}", fmt::styled(text, fmt::fg(colour)));
     }
 
+    void append_painted(std::string& out, std::string_view text,
+                        fmt::terminal_color colour) const {
+        if (!options_.color || colour == fmt::terminal_color::white) {
+            out += text;
+        } else {
+            fmt::format_to(std::back_inserter(out), "{}", fmt::styled(text, fmt::fg(colour)));
+        }
+    }
+
+    void write_out() {
+        std::fwrite(line_.data(), 1, line_.size(), out_);
+        line_.clear();
+    }
+
+    static constexpr std::size_t kBlockBytes = std::size_t{64} << 10;
+
     std::FILE* out_;
     TextOptions options_;
+    std::string line_;  // lines not yet written
+    // Pieces of a line, reused.
+    std::string time_text_;
+    std::string noise_function_;
+    std::string noise_summary_;
     Nanos first_ = kNoTime;
     Nanos previous_ = kNoTime;
 };

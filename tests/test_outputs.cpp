@@ -73,6 +73,39 @@ TEST(Jsonl, StringsAreEscaped) {
     EXPECT_EQ(json_string("µW/cm²"), "\"µW/cm²\"");
 }
 
+// The text's time column: time of day for absolute Unix times, seconds since the first
+// frame (-t r), seconds since the previous frame (-t d).
+TEST(Text, TimeColumnAbsoluteRelativeAndDelta) {
+    const std::string capture =
+        "# rtuscope capture v1\n# serial 9600 8N1\n"
+        "1763798400.010000000 01 03 00 00 00 02 C4 0B\n"
+        "1763798400.250000000 01 03 00 00 00 02 C4 0B\n"
+        "1763798400.300000000 01 03 00 00 00 02 C4 0B\n";
+    auto time_column = [&](TimeFormat format) {
+        const std::string text = run_to_text(capture, nullptr, [&](std::FILE* out) {
+            return make_text_sink(out, TextOptions{false, false, format});
+        });
+        std::vector<std::string> times;
+        for (std::size_t at = text.find('\n') + 1; at < text.size();) {
+            const auto nl = text.find('\n', at);
+            const std::string line = text.substr(at, nl - at);
+            if (line.rfind("--", 0) != 0) times.push_back(line.substr(6, 15));
+            at = nl + 1;
+        }
+        return times;
+    };
+    // 8 bytes at 9600 baud take 8.333 ms: the frames start at .001667, .241667, .291667.
+    EXPECT_EQ(time_column(TimeFormat::absolute),
+              (std::vector<std::string>{"08:00:00.001667", "08:00:00.241667",
+                                        "08:00:00.291667"}));
+    EXPECT_EQ(time_column(TimeFormat::relative),
+              (std::vector<std::string>{"       0.000000", "       0.240000",
+                                        "       0.290000"}));
+    EXPECT_EQ(time_column(TimeFormat::delta),
+              (std::vector<std::string>{"       0.000000", "       0.240000",
+                                        "       0.050000"}));
+}
+
 TEST(Filter, ParsesListsKindsAndTimes) {
     const auto ranges = parse_ranges("1,3,10-20,0x10", 255);
     ASSERT_TRUE(ranges);
