@@ -1,6 +1,6 @@
 // Writing numbers and bytes as text without format strings or per-character appends. The
 // decoder and the sinks run once per frame; parsing "{}" and calling std::string's
-// out-of-line push_back for every character were most of a decode's time in profiles.
+// out-of-line push_back for every character were a large part of a decode's time.
 // The write_* functions write at `p`, which must have room for their bound, and return
 // the end of what they wrote.
 #pragma once
