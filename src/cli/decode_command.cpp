@@ -62,8 +62,9 @@ void add_stats_command(CLI::App& app, int& exit_code) {
 
 void add_decode_command(CLI::App& app, int& exit_code) {
     auto args = std::make_shared<DecodeArgs>();
-    CLI::App* cmd = app.add_subcommand(
-        "decode", "Decode a saved capture, raw dump or hex log into annotated text or CSV");
+    CLI::App* cmd = app.add_subcommand("decode",
+                                       "Decode a saved capture, raw dump, hex log or pcap into "
+                                       "annotated text, CSV or JSON Lines");
     cmd->add_option("FILE", args->file, "Input file ('-' for standard input)")->required();
     cmd->add_option("--input-format", args->input_format,
                     "capture (native text format), raw (bytes, no timing), hex (one frame "
