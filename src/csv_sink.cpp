@@ -10,14 +10,11 @@ namespace {
 class CsvSink final : public RecordSink {
   public:
     explicit CsvSink(std::FILE* out) : out_(out) {}
-    CsvSink(const CsvSink&) = delete;
-    CsvSink& operator=(const CsvSink&) = delete;
-    ~CsvSink() override { write_out(); }
 
     void begin(const SessionInfo& /*session*/) override {
         std::fputs(
             "frame,time,slave,function,kind,crc,request,latency_ms,summary,hex,flags,notes\n",
-            out_);
+            out_.file());
     }
 
     void record(const Record& r) override {
@@ -42,7 +39,7 @@ class CsvSink final : public RecordSink {
         constexpr std::size_t kFixedChars = 4 * kMaxUintChars + kMaxSecondsChars + 80;
         const std::size_t bound = kFixedChars + 2 * r.frame.bytes.size() + 2 * summary_.size() +
                                   2 * ids_.size() + 2 * texts_.size() + 6;
-        append_with(line_, bound, [&](char* p) {
+        append_with(out_.text(), bound, [&](char* p) {
             p = write_uint(p, r.number);
             *p++ = ',';
             p = write_seconds(p, r.frame.start);
@@ -71,13 +68,12 @@ class CsvSink final : public RecordSink {
             *p++ = '\n';
             return p;
         });
-        // Rows go out in blocks; flush() (per record when live) and end() send the rest.
-        if (line_.size() >= kBlockBytes) write_out();
+        out_.record_done();
     }
 
     void flush() override {
-        write_out();
-        std::fflush(out_);
+        out_.send();
+        std::fflush(out_.file());
     }
 
     void end(const Totals& /*totals*/, const std::vector<std::string>& /*remarks*/) override {
@@ -85,15 +81,7 @@ class CsvSink final : public RecordSink {
     }
 
   private:
-    static constexpr std::size_t kBlockBytes = std::size_t{64} << 10;
-
-    void write_out() {
-        std::fwrite(line_.data(), 1, line_.size(), out_);
-        line_.clear();
-    }
-
-    std::FILE* out_;
-    std::string line_;  // rows not yet written
+    BlockOutput out_;
     // Fields that may need quoting, built before they are written; all reused.
     std::string summary_;
     std::string ids_;

@@ -81,12 +81,21 @@ std::string hex_bytes(Bytes b) {
     return s;
 }
 
+// "1 register", "2 registers"
+void append_counted(std::string& s, std::size_t n, std::string_view one, std::string_view many) {
+    append_uint(s, n);
+    s += ' ';
+    s += n == 1 ? one : many;
+}
+
 std::string counted(std::size_t n, std::string_view one, std::string_view many) {
-    return fmt::format("{} {}", n, n == 1 ? one : many);
+    std::string s;
+    append_counted(s, n, one, many);
+    return s;
 }
 
 // Summaries are built by appending to the record's reused string: the decoder runs once
-// per frame, and a temporary string per field was most of its time.
+// per frame, and a temporary string per field was a large part of its time.
 
 void append_word_list(std::string& s, std::span<const std::uint16_t> values) {
     const std::size_t listed = std::min(values.size(), kListedWords);
@@ -113,12 +122,8 @@ void append_bit_list(std::string& s, std::span<const std::uint16_t> bits) {
     }
 }
 
-// "2 registers: 0x1818 0x0000", "0 registers"
-void append_listed(std::string& s, std::span<const std::uint16_t> values, std::string_view one,
-                   std::string_view many, bool as_bits) {
-    append_uint(s, values.size());
-    s += ' ';
-    s += values.size() == 1 ? one : many;
+// ": 0x1818 0x0000" or ": 1011", nothing for no values.
+void append_values(std::string& s, std::span<const std::uint16_t> values, bool as_bits) {
     if (values.empty()) return;
     s += ": ";
     if (as_bits) {
@@ -126,6 +131,13 @@ void append_listed(std::string& s, std::span<const std::uint16_t> values, std::s
     } else {
         append_word_list(s, values);
     }
+}
+
+// "2 registers: 0x1818 0x0000", "0 registers"
+void append_listed(std::string& s, std::span<const std::uint16_t> values, std::string_view one,
+                   std::string_view many, bool as_bits) {
+    append_counted(s, values.size(), one, many);
+    append_values(s, values, as_bits);
 }
 
 std::string listed(std::span<const std::uint16_t> values, std::string_view one,
@@ -494,21 +506,14 @@ void write_multiple_request(Decoder& d, bool bits) {
                                need));
         }
     }
-    DataBlock& block =
-        d.add_block(bits ? DataTable::coils : DataTable::holding_registers, start.value_or(0), true);
+    DataBlock& block = d.add_block(bits ? DataTable::coils : DataTable::holding_registers,
+                                   start.value_or(0), true);
     if (bits) {
         bits_of(bytes, qty ? std::size_t{*qty} : bytes.size() * 8, block.values);
     } else {
         words_of(bytes, block.values);
     }
-    if (!block.values.empty()) {
-        d.out.summary += ": ";
-        if (bits) {
-            append_bit_list(d.out.summary, block.values);
-        } else {
-            append_word_list(d.out.summary, block.values);
-        }
-    }
+    append_values(d.out.summary, block.values, bits);
     if (!start || block.values.empty()) d.drop_last_block();
 }
 
@@ -587,13 +592,9 @@ void read_write_request(Decoder& d) {
                    fmt::format("byte count {}, {} need {}", *count,
                                counted(*write_qty, "register", "registers"), 2U * *write_qty));
         }
-        DataBlock& block =
-            d.add_block(DataTable::holding_registers, write_start.value_or(0), true);
+        DataBlock& block = d.add_block(DataTable::holding_registers, write_start.value_or(0), true);
         words_of(bytes, block.values);
-        if (!block.values.empty()) {
-            s += ": ";
-            append_word_list(s, block.values);
-        }
+        append_values(s, block.values, false);
         if (!write_start || block.values.empty()) d.drop_last_block();
     }
     d.out.summary = std::move(s);

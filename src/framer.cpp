@@ -23,6 +23,11 @@ namespace {
 // A gap before the first byte of the input or of a new channel: always a boundary.
 constexpr Nanos kBoundary = std::numeric_limits<Nanos>::max();
 
+// A silence the input measured (a boundary or an unknown gap is none).
+bool is_measured(Nanos gap) {
+    return gap != kNoTime && gap != kBoundary;
+}
+
 Reading reading_for(Role role, std::uint8_t function) {
     if (role == Role::request) return Reading::request;
     return (function & 0x80U) ? Reading::exception : Reading::response;
@@ -155,8 +160,7 @@ Nanos Framer::gap_at(std::size_t at) const {
 
 bool Framer::gap_before(std::size_t at) const {
     if (at >= bytes_.size()) return false;
-    const Nanos gap = gap_at(at);
-    return gap != kNoTime && gap >= t35_;
+    return ends_frame(gap_at(at));
 }
 
 std::size_t Framer::gap_after(std::size_t after, std::size_t limit) const {
@@ -167,8 +171,7 @@ std::size_t Framer::gap_after(std::size_t after, std::size_t limit) const {
     for (; i < pieces_.size(); ++i) {
         const auto at = static_cast<std::size_t>(pieces_[i].first - base_);
         if (at >= limit) break;
-        const Nanos gap = pieces_[i].gap;
-        if (gap != kNoTime && gap >= t35_) return at;
+        if (ends_frame(pieces_[i].gap)) return at;
     }
     return limit;
 }
@@ -525,14 +528,12 @@ void Framer::emit(std::size_t at, std::size_t length, RecordClass cls, Reading r
     frame.start = has_time(first_end) ? first_end - char_time_ : kNoTime;
     frame.end = byte_end(at + length - 1);
     const Nanos gap = gap_at(at);
-    frame.silence_before = gap != kNoTime && gap != kBoundary ? gap : kNoTime;
+    frame.silence_before = is_measured(gap) ? gap : kNoTime;
     const Piece& piece = piece_of(at);
     frame.channel = channels_[piece.channel];
     frame.source_line = piece.line;
-    // A frame cut short has no CRC to be wrong (its caller passes none).
-    const bool cut_short =
-        !notes.empty() && std::string_view(notes.front().id) == note_id::truncated;
-    if (cls != RecordClass::noise && !cut_short) add_crc_note(frame);
+    // Noise and frames cut short come without a CRC check, so without a CRC note.
+    add_crc_note(frame);
     frame.notes.insert(frame.notes.end(), notes.begin(), notes.end());
     if (cls != RecordClass::noise) add_timing_notes(frame, at, length);
     std::string hit;
@@ -559,9 +560,7 @@ void Framer::emit(std::size_t at, std::size_t length, RecordClass cls, Reading r
 void Framer::add_timing_notes(Frame& frame, std::size_t at, std::size_t length) const {
     // Only per-byte timing (one byte per chunk) measures real silences; a chunk of many
     // bytes only says when the adapter handed them over.
-    auto measured = [](const Piece& p) {
-        return p.exact && p.gap != kNoTime && p.gap != kBoundary;
-    };
+    auto measured = [](const Piece& p) { return p.exact && is_measured(p.gap); };
     const Piece& first = piece_of(at);
     if (first.first == base_ + at && measured(first) && first.gap < t35_) {
         frame.notes.push_back(

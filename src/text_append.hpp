@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <cstdint>
+#include <cstdio>
 #include <cstring>
 #include <span>
 #include <string>
@@ -91,9 +92,42 @@ inline void append_uint(std::string& out, std::uint64_t value) {
 // "0x1A2B"
 inline void append_hex4(std::string& out, std::uint16_t value) {
     static constexpr char kDigits[] = "0123456789ABCDEF";
-    const char text[6] = {'0', 'x', kDigits[value >> 12], kDigits[(value >> 8) & 0xFU],
-                          kDigits[(value >> 4) & 0xFU], kDigits[value & 0xFU]};
+    const char text[6] = {'0',
+                          'x',
+                          kDigits[value >> 12],
+                          kDigits[(value >> 8) & 0xFU],
+                          kDigits[(value >> 4) & 0xFU],
+                          kDigits[value & 0xFU]};
     out.append(text, sizeof text);
 }
+
+// Text a sink builds in memory, handed to its file in blocks: one write per 64 KiB
+// instead of one per record. send() hands over what is pending (the sinks call it on
+// flush(), per record when live, and before anything they print directly).
+class BlockOutput {
+  public:
+    explicit BlockOutput(std::FILE* file) : file_(file) {}
+    BlockOutput(const BlockOutput&) = delete;
+    BlockOutput& operator=(const BlockOutput&) = delete;
+    ~BlockOutput() { send(); }
+
+    [[nodiscard]] std::FILE* file() const { return file_; }
+    // Where the next record's text goes.
+    std::string& text() { return text_; }
+    // A record's text is complete: hand over a full block.
+    void record_done() {
+        if (text_.size() >= kBlockBytes) send();
+    }
+    void send() {
+        std::fwrite(text_.data(), 1, text_.size(), file_);
+        text_.clear();
+    }
+
+  private:
+    static constexpr std::size_t kBlockBytes = std::size_t{64} << 10;
+
+    std::FILE* file_;
+    std::string text_;
+};
 
 }  // namespace rtuscope

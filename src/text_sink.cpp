@@ -4,6 +4,7 @@
 #include <fmt/format.h>
 
 #include "rtuscope/sinks.hpp"
+#include "text_append.hpp"
 
 namespace rtuscope {
 namespace {
@@ -42,20 +43,18 @@ const char* arrow(const Record& r) {
 class TextSink final : public RecordSink {
   public:
     TextSink(std::FILE* out, TextOptions options) : out_(out), options_(options) {}
-    TextSink(const TextSink&) = delete;
-    TextSink& operator=(const TextSink&) = delete;
-    ~TextSink() override { write_out(); }
 
     void begin(const SessionInfo& s) override {
         const LineSettings& line = s.line;
-        fmt::print(out_, "{}: {} input, {} {} (t1.5 {:.2f} ms, t3.5 {:.2f} ms){}\n", s.source.name,
-                   s.source.format, line.baud, line.format(), static_cast<double>(line.t15()) / 1e6,
-                   static_cast<double>(line.t35()) / 1e6, s.source.timed ? "" : ", no timing");
-        if (!s.devices.empty()) fmt::print(out_, "devices: {}\n", s.devices);
+        fmt::print(out_.file(), "{}: {} input, {} {} (t1.5 {:.2f} ms, t3.5 {:.2f} ms){}\n",
+                   s.source.name, s.source.format, line.baud, line.format(),
+                   static_cast<double>(line.t15()) / 1e6, static_cast<double>(line.t35()) / 1e6,
+                   s.source.timed ? "" : ", no timing");
+        if (!s.devices.empty()) fmt::print(out_.file(), "devices: {}\n", s.devices);
     }
 
     void record(const Record& r) override {
-        std::string& line = line_;
+        std::string& line = out_.text();
         const std::size_t line_start = line.size();
         auto out = std::back_inserter(line);
         time_text_.clear();
@@ -85,11 +84,9 @@ class TextSink final : public RecordSink {
             if (shown < r.frame.bytes.size()) noise_summary_ += " ...";
             summary = noise_summary_;
         }
-        if (options_.color && colour_of(r) != fmt::terminal_color::white) {
-            append_painted(line, fmt::format("{:<30}", function), colour_of(r));
-        } else {
-            fmt::format_to(out, "{:<30}", function);
-        }
+        column_.clear();
+        fmt::format_to(std::back_inserter(column_), "{:<30}", function);
+        append_painted(line, column_, colour_of(r));
         line += ' ';
         line += summary;
         if (r.kind == Kind::broadcast) line += "  (broadcast, no answer expected)";
@@ -117,29 +114,29 @@ class TextSink final : public RecordSink {
             line += '\n';
         }
         append_values(line, r.values);
-        // Lines go out in blocks; flush() (per record when live) and end() send the rest.
-        if (line.size() >= kBlockBytes) write_out();
+        out_.record_done();
         if (has_time(r.frame.start)) previous_ = r.frame.start;
     }
 
     void flush() override {
-        write_out();
-        std::fflush(out_);
+        out_.send();
+        std::fflush(out_.file());
     }
 
     void end(const Totals& t, const std::vector<std::string>& remarks) override {
-        write_out();
-        fmt::print(out_,
+        out_.send();
+        std::FILE* file = out_.file();
+        fmt::print(file,
                    "-- {} records, {} bytes: {} requests, {} answers, {} exceptions, "
                    "{} broadcasts, {} unknown, {} invalid, {} noise bytes in {} runs\n",
                    t.records, t.bytes, t.requests, t.responses, t.exceptions, t.broadcasts,
                    t.unknown, t.invalid, t.noise_bytes, t.noise_runs);
-        fmt::print(out_,
+        fmt::print(file,
                    "-- CRC: {} bad, {} swapped; {} requests without answer; "
                    "{} answers without request\n",
                    t.crc_bad, t.crc_swapped, t.unanswered, t.unsolicited);
-        for (const std::string& remark : remarks) fmt::print(out_, "-- note: {}\n", remark);
-        std::fflush(out_);
+        for (const std::string& remark : remarks) fmt::print(file, "-- note: {}\n", remark);
+        std::fflush(file);
     }
 
   private:
@@ -176,7 +173,8 @@ class TextSink final : public RecordSink {
                 for (std::size_t k = 0; k < v.notes.size(); ++k) {
                     notes += (k > 0 ? "; " : "") + v.notes[k].text;
                 }
-                text += "  " + paint(notes, fmt::terminal_color::yellow);
+                text += "  ";
+                append_painted(text, notes, fmt::terminal_color::yellow);
             }
             out += text + '\n';
             ++i;
@@ -220,13 +218,7 @@ class TextSink final : public RecordSink {
         }
     }
 
-    std::string paint(const std::string& text, fmt::terminal_color colour) const {
-        if (!options_.color || colour == fmt::terminal_color::white) return text;
-        return fmt::format("{}", fmt::styled(text, fmt::fg(colour)));
-    }
-
-    void append_painted(std::string& out, std::string_view text,
-                        fmt::terminal_color colour) const {
+    void append_painted(std::string& out, std::string_view text, fmt::terminal_color colour) const {
         if (!options_.color || colour == fmt::terminal_color::white) {
             out += text;
         } else {
@@ -234,18 +226,11 @@ class TextSink final : public RecordSink {
         }
     }
 
-    void write_out() {
-        std::fwrite(line_.data(), 1, line_.size(), out_);
-        line_.clear();
-    }
-
-    static constexpr std::size_t kBlockBytes = std::size_t{64} << 10;
-
-    std::FILE* out_;
+    BlockOutput out_;
     TextOptions options_;
-    std::string line_;  // lines not yet written
     // Pieces of a line, reused.
     std::string time_text_;
+    std::string column_;
     std::string noise_function_;
     std::string noise_summary_;
     Nanos first_ = kNoTime;

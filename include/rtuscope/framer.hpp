@@ -77,6 +77,8 @@ class Framer {
     // The first byte in (after, limit) with a gap before it, else `limit`.
     [[nodiscard]] std::size_t gap_after(std::size_t after, std::size_t limit) const;
     [[nodiscard]] bool gap_before(std::size_t at) const;
+    // A silence (or the start of the input or of a channel) of at least t3.5.
+    [[nodiscard]] bool ends_frame(Nanos gap) const { return gap != kNoTime && gap >= t35_; }
     void classify_unframed(std::size_t from, std::size_t to);
     // Whether the pairing stage awaits an answer from this slave and function at `at`.
     [[nodiscard]] bool awaits_answer(std::span<const std::uint8_t> head, Nanos at) const;
@@ -94,7 +96,7 @@ class Framer {
     // One pushed chunk: what is known of its bytes' timing. Kept per chunk, not per byte:
     // with seven per-byte arrays the bookkeeping cost more than the framing.
     struct Piece {
-        std::uint64_t first = 0;  // stream index of its first byte (base_ + buffer index)
+        std::uint64_t first = 0;      // stream index of its first byte (base_ + buffer index)
         Nanos first_start = kNoTime;  // its first byte's estimated start
         Nanos time = kNoTime;         // its last byte's end (the chunk's time)
         Nanos gap = kNoTime;          // silence before its first byte; kBoundary at a start
@@ -128,7 +130,7 @@ class Framer {
     // Bytes not yet emitted, from index `pos_` on; bytes_[0] is byte `base_` of the stream.
     std::vector<std::uint8_t> bytes_;
     std::uint64_t base_ = 0;
-    std::vector<Piece> pieces_;  // the chunks the buffered bytes came in, in order
+    std::vector<Piece> pieces_;           // the chunks the buffered bytes came in, in order
     mutable std::size_t piece_hint_ = 0;  // where piece_of last looked: lookups go forward
     // Bytes the UART flagged (parity/framing), as buffer indices. Rare, so sparse.
     std::vector<std::size_t> char_errors_;

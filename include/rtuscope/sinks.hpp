@@ -27,7 +27,7 @@ std::unique_ptr<RecordSink> make_values_csv_sink(std::FILE* out);
 std::unique_ptr<RecordSink> make_jsonl_sink(std::FILE* out);
 
 // Shared by the sinks, each also as append_*: sinks build every line in one reused
-// string, since a temporary string per field was most of the time of a decode.
+// string, since a temporary string per field was a large part of a decode's time.
 // "01 03 00 00" (spaced) or "01030000".
 std::string hex_bytes(std::span<const std::uint8_t> bytes, bool spaced);
 void append_hex(std::string& out, std::span<const std::uint8_t> bytes, bool spaced);
