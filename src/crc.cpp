@@ -9,10 +9,8 @@ namespace {
 // Slicing-by-8: kTables[0] is the classic byte table; kTables[k][i] is the CRC of byte i
 // followed by k zero bytes, so eight bytes are folded in with eight independent lookups
 // instead of eight dependent ones (about 3x faster on long frames, same results).
-using Tables = std::array<std::array<std::uint16_t, 256>, 8>;
-
-constexpr Tables make_tables() {
-    Tables tables{};
+constexpr detail::CrcTables make_tables() {
+    detail::CrcTables tables{};
     for (unsigned i = 0; i < 256; ++i) {
         auto crc = static_cast<std::uint16_t>(i);
         for (int bit = 0; bit < 8; ++bit) {
@@ -30,15 +28,18 @@ constexpr Tables make_tables() {
     return tables;
 }
 
-constexpr Tables kTables = make_tables();
-
 }  // namespace
+
+namespace detail {
+constinit const CrcTables kCrcTables = make_tables();
+}  // namespace detail
 
 std::uint16_t crc16_modbus(std::span<const std::uint8_t> bytes) {
     return crc16_modbus_update(0xFFFF, bytes);
 }
 
 std::uint16_t crc16_modbus_update(std::uint16_t crc, std::span<const std::uint8_t> bytes) {
+    const auto& kTables = detail::kCrcTables;
     const std::uint8_t* p = bytes.data();
     std::size_t n = bytes.size();
     while (n >= 8) {
@@ -51,9 +52,23 @@ std::uint16_t crc16_modbus_update(std::uint16_t crc, std::span<const std::uint8_
         p += 8;
         n -= 8;
     }
-    for (; n > 0; --n, ++p) {
-        crc = static_cast<std::uint16_t>((crc >> 8) ^ kTables[0][(crc ^ *p) & 0xFFU]);
+    // Frames are short: most of one is this tail, so it too goes in steps of 4 and 2.
+    if (n >= 4) {
+        const auto b0 = static_cast<std::uint8_t>(p[0] ^ (crc & 0xFFU));
+        const auto b1 = static_cast<std::uint8_t>(p[1] ^ (crc >> 8));
+        crc = static_cast<std::uint16_t>(kTables[3][b0] ^ kTables[2][b1] ^ kTables[1][p[2]] ^
+                                         kTables[0][p[3]]);
+        p += 4;
+        n -= 4;
     }
+    if (n >= 2) {
+        const auto b0 = static_cast<std::uint8_t>(p[0] ^ (crc & 0xFFU));
+        const auto b1 = static_cast<std::uint8_t>(p[1] ^ (crc >> 8));
+        crc = static_cast<std::uint16_t>(kTables[1][b0] ^ kTables[0][b1]);
+        p += 2;
+        n -= 2;
+    }
+    if (n == 1) crc = crc16_modbus_byte(crc, *p);
     return crc;
 }
 

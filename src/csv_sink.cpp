@@ -1,6 +1,4 @@
 // The per-frame CSV of DESIGN.md: RFC 4180, the documented columns first in their order.
-#include <fmt/format.h>
-
 #include "rtuscope/sinks.hpp"
 #include "text_append.hpp"
 
@@ -36,7 +34,8 @@ class CsvSink final : public RecordSink {
         }
         // Numbers, time, kind, CRC, latency and commas fit in kFixedChars; quoting at most
         // doubles a field and adds two quotes.
-        constexpr std::size_t kFixedChars = 4 * kMaxUintChars + kMaxSecondsChars + 80;
+        constexpr std::size_t kFixedChars =
+            4 * kMaxUintChars + kMaxSecondsChars + kMaxMillisChars + 50;
         const std::size_t bound = kFixedChars + 2 * r.frame.bytes.size() + 2 * summary_.size() +
                                   2 * ids_.size() + 2 * texts_.size() + 6;
         append_with(out_.text(), bound, [&](char* p) {
@@ -54,9 +53,7 @@ class CsvSink final : public RecordSink {
             *p++ = ',';
             if (r.request_number != 0) p = write_uint(p, r.request_number);
             *p++ = ',';
-            if (has_time(r.latency)) {
-                p = fmt::format_to(p, "{:.3f}", static_cast<double>(r.latency) / 1e6);
-            }
+            if (has_time(r.latency)) p = write_millis(p, r.latency, 3);
             *p++ = ',';
             p = write_csv_field(p, summary_);
             *p++ = ',';

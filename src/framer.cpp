@@ -95,6 +95,7 @@ void Framer::push(const Chunk& chunk) {
     Piece piece;
     piece.first = base_ + bytes_.size();
     piece.first_start = first_start;
+    if (has_time(chunk.time)) piece.first_end = first_start + (chunk.time - first_start) / n;
     piece.time = chunk.time;
     piece.gap = gap;
     piece.line = chunk.source_line;
@@ -148,8 +149,10 @@ Nanos Framer::byte_end(std::size_t at) const {
     const Piece& p = piece_of(at);
     if (!has_time(p.time)) return kNoTime;
     // Spread evenly over the chunk, its last byte ending at the chunk's time.
-    const auto n = static_cast<Nanos>(piece_end(p) - p.first);
     const auto i = static_cast<Nanos>(base_ + at - p.first);
+    if (i == 0) return p.first_end;
+    const auto n = static_cast<Nanos>(piece_end(p) - p.first);
+    if (i + 1 == n) return p.time;
     return p.first_start + (p.time - p.first_start) * (i + 1) / n;
 }
 
@@ -196,31 +199,39 @@ Framer::Attempt Framer::attempt_at(std::size_t at, bool at_end) const {
     const ProtocolRules& rules = *options_.rules;
 
     // Which reading the request/answer sequence expects here; on a two-port tap the
-    // port it came from says it outright.
-    const Nanos at_end_time = byte_end(at);
-    bool prefer_response = awaits_answer(head, at_end_time);
-    const std::string& channel = channels_[piece_of(at).channel];
-    if (!channel.empty() && !options_.request_channel.empty()) {
-        prefer_response = channel != options_.request_channel;
-    } else if (prefer_response) {
-        // The same request sent again (a master's retry) is not an answer, unless answers
-        // to this function repeat the request anyway.
-        const auto& req = options_.expectation->awaited(at_end_time)->request;
-        if (!rules.answer_is_echo(slave, function) && req.size() <= avail &&
-            std::equal(req.begin(), req.end(), head.begin())) {
-            prefer_response = false;
+    // port it came from says it outright. Only asked when two readings fit or the length
+    // was searched, so worked out on first use.
+    enum class Preference : std::uint8_t { unknown, request, response };
+    Preference preference = Preference::unknown;
+    auto prefers_response = [&] {
+        if (preference != Preference::unknown) return preference == Preference::response;
+        const Nanos at_end_time = byte_end(at);
+        bool response = awaits_answer(head, at_end_time);
+        const std::string& channel = channels_[piece_of(at).channel];
+        if (!channel.empty() && !options_.request_channel.empty()) {
+            response = channel != options_.request_channel;
+        } else if (response) {
+            // The same request sent again (a master's retry) is not an answer, unless
+            // answers to this function repeat the request anyway.
+            const auto& req = options_.expectation->awaited(at_end_time)->request;
+            if (!rules.answer_is_echo(slave, function) && req.size() <= avail &&
+                std::equal(req.begin(), req.end(), head.begin())) {
+                response = false;
+            }
         }
-    }
+        preference = response ? Preference::response : Preference::request;
+        return response;
+    };
 
     bool pending = false;
+    bool searched = false;
     Attempt best;
     auto better = [&](const Attempt& a, const Attempt& b, bool a_gap, bool b_gap) {
         if ((a.crc.status == CrcStatus::ok) != (b.crc.status == CrcStatus::ok)) {
             return a.crc.status == CrcStatus::ok;
         }
-        const bool a_pref = (a.reading != Reading::request) == prefer_response;
-        const bool b_pref = (b.reading != Reading::request) == prefer_response;
-        if (a_pref != b_pref) return a_pref;
+        const bool a_answer = a.reading != Reading::request;
+        if (a_answer != (b.reading != Reading::request)) return a_answer == prefers_response();
         if (a_gap != b_gap) return a_gap;
         return a.length < b.length;
     };
@@ -254,10 +265,10 @@ Framer::Attempt Framer::attempt_at(std::size_t at, bool at_end) const {
                 break;
             }
             case FrameLength::Kind::search: {
-                if (role == Role::response && candidate.reading == Reading::response &&
-                    best.outcome == Outcome::frame && best.delimiter == Delimiter::crc_search) {
-                    continue;  // same search as the request reading
-                }
+                // A code one reading searches, the other does too, and the search does not
+                // depend on the reading: the request reading's search decided it.
+                if (searched) continue;
+                searched = true;
                 const Search found = search_length(at, at_end, true);
                 if (found.pending) pending = true;
                 if (found.length == 0) continue;
@@ -266,7 +277,7 @@ Framer::Attempt Framer::attempt_at(std::size_t at, bool at_end) const {
                 candidate.delimiter = Delimiter::crc_search;
                 // Order, not shape, tells which way these go.
                 candidate.reading =
-                    prefer_response ? reading_for(Role::response, function) : Reading::request;
+                    prefers_response() ? reading_for(Role::response, function) : Reading::request;
                 break;
             }
         }
@@ -316,7 +327,7 @@ Framer::Search Framer::search_length(std::size_t at, bool at_end, bool confirm) 
                 return result;
             }
         }
-        crc = crc16_modbus_update(crc, head.subspan(n - 2, 1));
+        crc = crc16_modbus_byte(crc, head[n - 2]);
     }
     result.pending = !at_end && bound == avail && avail < kMaxAdu;
     return result;

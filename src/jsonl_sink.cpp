@@ -6,6 +6,7 @@
 
 #include "rtuscope/decoder.hpp"
 #include "rtuscope/sinks.hpp"
+#include "text_append.hpp"
 
 namespace rtuscope {
 namespace {
@@ -33,6 +34,12 @@ std::string json_value(const std::string& value) {
     return number && i == value.size() ? value : json_string(value);
 }
 
+std::string millis_text(Nanos duration) {
+    std::string out;
+    append_with(out, kMaxMillisChars, [&](char* p) { return write_millis(p, duration, 3); });
+    return out;
+}
+
 class JsonlSink final : public RecordSink {
   public:
     explicit JsonlSink(std::FILE* out) : out_(out) {}
@@ -56,9 +63,7 @@ class JsonlSink final : public RecordSink {
         line += fmt::format("\"request\":{},",
                             r.request_number != 0 ? std::to_string(r.request_number) : "null");
         line += fmt::format("\"latency_ms\":{},",
-                            has_time(r.latency)
-                                ? fmt::format("{:.3f}", static_cast<double>(r.latency) / 1e6)
-                                : "null");
+                            has_time(r.latency) ? millis_text(r.latency) : "null");
         line += "\"summary\":" + json_string(record_summary(r)) + ",";
         line += "\"hex\":\"" + hex_bytes(r.frame.bytes, false) + "\",";
         line += "\"flags\":" + json_list(flags.ids) + ",\"notes\":" + json_list(flags.texts) + ",";

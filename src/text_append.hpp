@@ -59,6 +59,30 @@ inline char* write_seconds(char* p, Nanos time) {
     return p + 6;
 }
 
+// Milliseconds with 2 or 3 decimals, exactly as fmt's "{:.2f}"/"{:.3f}" write ns / 1e6
+// ("12.345", "-0.004"); at most kMaxMillisChars characters. Integer arithmetic, except
+// where the double's own rounding decides: a value halfway between two outputs (and
+// one beyond 18 minutes) is left to fmt.
+inline constexpr std::size_t kMaxMillisChars = 32;
+inline char* write_millis(char* p, Nanos duration, int decimals) {
+    const std::uint64_t unit = decimals == 2 ? 10'000 : 1'000;  // ns per last digit
+    const bool negative = duration < 0;
+    const std::uint64_t magnitude = negative
+                                        ? std::uint64_t{0} - static_cast<std::uint64_t>(duration)
+                                        : static_cast<std::uint64_t>(duration);
+    if (magnitude % unit == unit / 2 || magnitude >= (std::uint64_t{1} << 40)) {
+        return fmt::format_to(p, "{:.{}f}", static_cast<double>(duration) / 1e6, decimals);
+    }
+    const std::uint64_t steps = (magnitude + unit / 2) / unit;
+    const std::uint64_t steps_per_ms = 1'000'000 / unit;
+    if (negative) *p++ = '-';
+    p = write_uint(p, steps / steps_per_ms);
+    *p++ = '.';
+    std::uint64_t rest = steps % steps_per_ms;
+    for (int i = decimals - 1; i >= 0; --i, rest /= 10) p[i] = static_cast<char>('0' + rest % 10);
+    return p + decimals;
+}
+
 // An RFC 4180 field, quoted when it holds a comma, a quote or a line break; at most
 // 2 * size + 2 characters.
 inline char* write_csv_field(char* p, std::string_view text) {

@@ -91,8 +91,12 @@ class TextSink final : public RecordSink {
         line += summary;
         if (r.kind == Kind::broadcast) line += "  (broadcast, no answer expected)";
         if (has_time(r.latency)) {
-            fmt::format_to(out, "  {:.2f} ms after #{}", static_cast<double>(r.latency) / 1e6,
-                           r.request_number);
+            append_with(line, kMaxMillisChars + kMaxUintChars + 16, [&](char* p) {
+                p = write_text(p, "  ");
+                p = write_millis(p, r.latency, 2);
+                p = write_text(p, " ms after #");
+                return write_uint(p, r.request_number);
+            });
         } else if (r.request_number != 0) {
             fmt::format_to(out, "  answers #{}", r.request_number);
         }

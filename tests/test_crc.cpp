@@ -1,6 +1,8 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
+#include <span>
 #include <string_view>
 #include <vector>
 
@@ -54,6 +56,41 @@ TEST(Crc, FrameFollowedByZeroAlsoPassesNaiveCheck) {
     f[7] = static_cast<std::uint8_t>(crc >> 8);
     EXPECT_EQ(check_crc(std::span(f).first(8)).status, CrcStatus::ok);
     EXPECT_EQ(check_crc(f).status, CrcStatus::ok);
+}
+
+// The table-driven CRC goes 8, 4, 2 and 1 bytes at a time: every length and every split
+// point must agree with the CRC computed bit by bit, as the specification describes it.
+TEST(Crc, EveryLengthAndSplitAgreesWithTheBitwiseDefinition) {
+    auto bitwise = [](std::span<const std::uint8_t> bytes) {
+        std::uint16_t crc = 0xFFFF;
+        for (const std::uint8_t byte : bytes) {
+            crc ^= byte;
+            for (int bit = 0; bit < 8; ++bit) {
+                crc = (crc & 1U) ? static_cast<std::uint16_t>((crc >> 1) ^ 0xA001U)
+                                 : static_cast<std::uint16_t>(crc >> 1);
+            }
+        }
+        return crc;
+    };
+    std::vector<std::uint8_t> data(300);
+    std::uint32_t state = 12345;
+    for (auto& byte : data) {
+        state = state * 1103515245U + 12345U;
+        byte = static_cast<std::uint8_t>(state >> 16);
+    }
+    for (std::size_t n = 0; n <= data.size(); ++n) {
+        const auto bytes = std::span(data).first(n);
+        const std::uint16_t expected = bitwise(bytes);
+        ASSERT_EQ(crc16_modbus(bytes), expected) << n << " bytes";
+        for (std::size_t split = 0; split <= std::min<std::size_t>(n, 20); ++split) {
+            ASSERT_EQ(crc16_modbus_update(crc16_modbus(bytes.first(split)), bytes.subspan(split)),
+                      expected)
+                << n << " bytes split at " << split;
+        }
+        std::uint16_t byte_by_byte = 0xFFFF;
+        for (const std::uint8_t byte : bytes) byte_by_byte = crc16_modbus_byte(byte_by_byte, byte);
+        ASSERT_EQ(byte_by_byte, expected) << n << " bytes one at a time";
+    }
 }
 
 TEST(Crc, TooShortIsBad) {

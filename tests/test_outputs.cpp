@@ -1,8 +1,11 @@
 // JSON Lines output and record filters, on the seed manual's frames and hand-made records.
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <cstdio>
+#include <random>
 #include <string>
+#include <vector>
 
 #include "rtuscope/bus.hpp"
 #include "rtuscope/filter.hpp"
@@ -96,14 +99,91 @@ TEST(Text, TimeColumnAbsoluteRelativeAndDelta) {
     };
     // 8 bytes at 9600 baud take 8.333 ms: the frames start at .001667, .241667, .291667.
     EXPECT_EQ(time_column(TimeFormat::absolute),
-              (std::vector<std::string>{"08:00:00.001667", "08:00:00.241667",
-                                        "08:00:00.291667"}));
+              (std::vector<std::string>{"08:00:00.001667", "08:00:00.241667", "08:00:00.291667"}));
     EXPECT_EQ(time_column(TimeFormat::relative),
-              (std::vector<std::string>{"       0.000000", "       0.240000",
-                                        "       0.290000"}));
+              (std::vector<std::string>{"       0.000000", "       0.240000", "       0.290000"}));
     EXPECT_EQ(time_column(TimeFormat::delta),
-              (std::vector<std::string>{"       0.000000", "       0.240000",
-                                        "       0.050000"}));
+              (std::vector<std::string>{"       0.000000", "       0.240000", "       0.050000"}));
+}
+
+// The latency is written without floating point; it must read exactly as fmt's rounding
+// of ns / 1e6 had it (3 decimals in CSV, 2 in text), halfway cases and signs included.
+TEST(Outputs, LatencyReadsAsFmtRoundsTheMilliseconds) {
+    std::vector<Nanos> latencies = {0,
+                                    1,
+                                    499,
+                                    500,
+                                    501,
+                                    999,
+                                    1'000,
+                                    1'499,
+                                    1'500,
+                                    1'501,
+                                    5'000,
+                                    15'000,
+                                    62'500,
+                                    125'000,
+                                    4'999'500,
+                                    -1,
+                                    -500,
+                                    -4'000,
+                                    -5'000,
+                                    -62'500,
+                                    86'805'555,
+                                    1'234'567'891,
+                                    (Nanos{1} << 40) + 500,
+                                    3'600'000'000'000};
+    std::mt19937_64 random(7);
+    for (int i = 0; i < 3000; ++i) {
+        latencies.push_back(static_cast<Nanos>(random() % 3'000'000'000) - 500'000'000);
+    }
+    auto written = [&](auto make_sink) {
+        char* buffer = nullptr;
+        std::size_t size = 0;
+        std::FILE* out = open_memstream(&buffer, &size);
+        {
+            auto sink = make_sink(out);
+            sink->begin(SessionInfo{});
+            Record r;
+            r.kind = Kind::response;
+            r.request_number = 1;
+            for (const Nanos latency : latencies) {
+                ++r.number;
+                r.latency = latency;
+                sink->record(r);
+            }
+            sink->end(Totals{}, {});
+        }
+        std::fclose(out);
+        std::string text(buffer, size);
+        std::free(buffer);
+        return text;
+    };
+
+    const std::string csv = written([](std::FILE* out) { return make_csv_sink(out); });
+    std::vector<std::string> csv_latencies;
+    for (std::size_t at = csv.find('\n') + 1; at < csv.size(); at = csv.find('\n', at) + 1) {
+        std::size_t field = at;
+        for (int i = 0; i < 7; ++i) field = csv.find(',', field) + 1;
+        csv_latencies.push_back(csv.substr(field, csv.find(',', field) - field));
+    }
+    const std::string text = written([](std::FILE* out) {
+        return make_text_sink(out, TextOptions{false, false, TimeFormat::absolute});
+    });
+    std::vector<std::string> text_latencies;
+    for (std::size_t at = text.find(" ms after #"); at != std::string::npos;
+         at = text.find(" ms after #", at + 1)) {
+        const std::size_t from = text.rfind(' ', at - 1) + 1;
+        text_latencies.push_back(text.substr(from, at - from));
+    }
+
+    ASSERT_EQ(csv_latencies.size(), latencies.size());
+    ASSERT_EQ(text_latencies.size(), latencies.size());
+    for (std::size_t i = 0; i < latencies.size(); ++i) {
+        const double ms = static_cast<double>(latencies[i]) / 1e6;
+        EXPECT_EQ(csv_latencies[i], fmt::format("{:.3f}", ms)) << latencies[i] << " ns";
+        EXPECT_EQ(text_latencies[i], fmt::format("{:.2f}", ms)) << latencies[i] << " ns";
+    }
 }
 
 TEST(Filter, ParsesListsKindsAndTimes) {

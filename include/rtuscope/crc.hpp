@@ -2,6 +2,7 @@
 // byte first (Modbus over Serial Line v1.02, 2.5.1.2 and appendix B).
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <span>
 
@@ -10,6 +11,17 @@ namespace rtuscope {
 std::uint16_t crc16_modbus(std::span<const std::uint8_t> bytes);
 // Continues a CRC over more bytes: crc16_modbus(a + b) == crc16_modbus_update(crc16_modbus(a), b).
 std::uint16_t crc16_modbus_update(std::uint16_t crc, std::span<const std::uint8_t> bytes);
+
+namespace detail {
+// Slicing-by-8 tables (see crc.cpp); [0] is the classic byte table.
+using CrcTables = std::array<std::array<std::uint16_t, 256>, 8>;
+extern const CrcTables kCrcTables;
+}  // namespace detail
+
+// One byte more, inline: for a search that checks the CRC after every byte.
+inline std::uint16_t crc16_modbus_byte(std::uint16_t crc, std::uint8_t byte) {
+    return static_cast<std::uint16_t>((crc >> 8) ^ detail::kCrcTables[0][(crc ^ byte) & 0xFFU]);
+}
 
 enum class CrcStatus : std::uint8_t {
     none,     // not a frame (noise)

@@ -98,6 +98,7 @@ class Framer {
     struct Piece {
         std::uint64_t first = 0;      // stream index of its first byte (base_ + buffer index)
         Nanos first_start = kNoTime;  // its first byte's estimated start
+        Nanos first_end = kNoTime;    // its first byte's estimated end (asked for every frame)
         Nanos time = kNoTime;         // its last byte's end (the chunk's time)
         Nanos gap = kNoTime;          // silence before its first byte; kBoundary at a start
         int line = 0;
