@@ -97,15 +97,24 @@ std::string counted(std::size_t n, std::string_view one, std::string_view many) 
 // Summaries are built by appending to the record's reused string: the decoder runs once
 // per frame, and a temporary string per field was a large part of its time.
 
+// " ... (+12 more)" after a list cut short.
+char* write_more(char* p, std::size_t more) {
+    p = write_text(p, " ... (+");
+    p = write_uint(p, more);
+    return write_text(p, " more)");
+}
+constexpr std::size_t kMaxMoreChars = kMaxUintChars + 14;
+
 void append_word_list(std::string& s, std::span<const std::uint16_t> values) {
     const std::size_t listed = std::min(values.size(), kListedWords);
-    for (std::size_t i = 0; i < listed; ++i) {
-        if (i != 0) s += ' ';
-        append_hex4(s, values[i]);
-    }
-    if (values.size() > listed) {
-        fmt::format_to(std::back_inserter(s), " ... (+{} more)", values.size() - listed);
-    }
+    append_with(s, 7 * listed + kMaxMoreChars, [&](char* p) {
+        for (std::size_t i = 0; i < listed; ++i) {
+            if (i != 0) *p++ = ' ';
+            p = write_hex4(p, values[i]);
+        }
+        if (values.size() > listed) p = write_more(p, values.size() - listed);
+        return p;
+    });
 }
 
 std::string word_list(std::span<const std::uint16_t> values) {
@@ -116,10 +125,11 @@ std::string word_list(std::span<const std::uint16_t> values) {
 
 void append_bit_list(std::string& s, std::span<const std::uint16_t> bits) {
     const std::size_t listed = std::min(bits.size(), kListedBits);
-    for (std::size_t i = 0; i < listed; ++i) s += bits[i] != 0 ? '1' : '0';
-    if (bits.size() > listed) {
-        fmt::format_to(std::back_inserter(s), " ... (+{} more)", bits.size() - listed);
-    }
+    append_with(s, listed + kMaxMoreChars, [&](char* p) {
+        for (std::size_t i = 0; i < listed; ++i) *p++ = bits[i] != 0 ? '1' : '0';
+        if (bits.size() > listed) p = write_more(p, bits.size() - listed);
+        return p;
+    });
 }
 
 // ": 0x1818 0x0000" or ": 1011", nothing for no values.

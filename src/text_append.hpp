@@ -113,16 +113,21 @@ inline void append_uint(std::string& out, std::uint64_t value) {
     out.append(text.data(), text.size());
 }
 
-// "0x1A2B"
-inline void append_hex4(std::string& out, std::uint16_t value) {
+// "0x1A2B": 6 characters.
+inline char* write_hex4(char* p, std::uint16_t value) {
     static constexpr char kDigits[] = "0123456789ABCDEF";
-    const char text[6] = {'0',
-                          'x',
-                          kDigits[value >> 12],
-                          kDigits[(value >> 8) & 0xFU],
-                          kDigits[(value >> 4) & 0xFU],
-                          kDigits[value & 0xFU]};
-    out.append(text, sizeof text);
+    p[0] = '0';
+    p[1] = 'x';
+    p[2] = kDigits[value >> 12];
+    p[3] = kDigits[(value >> 8) & 0xFU];
+    p[4] = kDigits[(value >> 4) & 0xFU];
+    p[5] = kDigits[value & 0xFU];
+    return p + 6;
+}
+
+inline void append_hex4(std::string& out, std::uint16_t value) {
+    char text[6];
+    out.append(text, write_hex4(text, value));
 }
 
 // Text a sink builds in memory, handed to its file in blocks: one write per 64 KiB

@@ -49,13 +49,14 @@ const AwaitedAnswer* Transactions::awaited(Nanos at) const {
     return &awaited_;
 }
 
-void Transactions::give_up_on_request(std::string why) {
+void Transactions::give_up_on_request(std::string_view why) {
     if (!awaiting_) return;
     Record& request = held(*awaiting_);
+    std::string text(why);
     if (!options_.rules->answers_errors(request.frame.slave())) {
-        why += " (this device answers errors with silence)";
+        text += " (this device answers errors with silence)";
     }
-    request.notes.push_back({note_id::no_answer, std::move(why)});
+    request.notes.push_back({note_id::no_answer, std::move(text)});
     awaiting_.reset();
     release();
 }

@@ -8,6 +8,7 @@
 #include <functional>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "rtuscope/decoder.hpp"
@@ -69,7 +70,9 @@ class Transactions : public AnswerExpectation {
     [[nodiscard]] const AwaitedAnswer* awaited(Nanos at) const override;
 
   private:
-    void give_up_on_request(std::string why);
+    // Called for every request, usually with nothing awaited: `why` becomes a string
+    // only when a note is written.
+    void give_up_on_request(std::string_view why);
     void release();
     // The i-th held record, oldest first.
     Record& held(std::size_t i) { return ring_[(head_ + i) % ring_.size()]; }
