@@ -267,7 +267,7 @@ class CaptureReader final : public ChunkSource {
         while (p < end) {
             const int hi = hex_value(p[0]);
             const int lo = p + 1 < end ? hex_value(p[1]) : -1;
-            if (hi < 0 || lo < 0 || (p + 2 < end && !is_space(p[2]))) {
+            if ((hi | lo) < 0 || (p + 2 < end && !is_space(p[2]))) {
                 i = static_cast<std::size_t>(p - line.data());
                 e = token_end(line, i);
                 out.bytes.resize(static_cast<std::size_t>(next - first));
@@ -275,7 +275,8 @@ class CaptureReader final : public ChunkSource {
                                 fmt::format("bad hex byte {}", quote_token(line.substr(i, e - i))));
             }
             *next++ = static_cast<std::uint8_t>(hi << 4 | lo);
-            p += 2;
+            // Past the byte and the one separator checked above; more are rare.
+            p += p + 2 < end ? 3 : 2;
             while (p < end && is_space(*p)) ++p;
         }
         out.bytes.resize(static_cast<std::size_t>(next - first));

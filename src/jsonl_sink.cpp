@@ -2,8 +2,6 @@
 // consumers). The schema is documented in README.md ("JSON Lines"); keys are only ever
 // added, never renamed or retyped. Unknown values are null, never omitted, so that every
 // line has the same keys.
-#include <fmt/format.h>
-
 #include "rtuscope/decoder.hpp"
 #include "rtuscope/sinks.hpp"
 #include "text_append.hpp"
@@ -11,17 +9,22 @@
 namespace rtuscope {
 namespace {
 
-std::string json_list(const std::vector<std::string>& items) {
-    std::string out = "[";
-    for (std::size_t i = 0; i < items.size(); ++i)
-        out += (i > 0 ? "," : "") + json_string(items[i]);
-    return out + "]";
+void append_json_list(std::string& out, const std::vector<std::string>& items) {
+    out += '[';
+    for (std::size_t i = 0; i < items.size(); ++i) {
+        if (i > 0) out += ',';
+        append_json_string(out, items[i]);
+    }
+    out += ']';
 }
 
 // A value as a JSON number when it is a plain decimal ("220.5", "-5.0", "12345"), else
 // as a string (an enum label, bit names, a special write's meaning); null when unknown.
-std::string json_value(const std::string& value) {
-    if (value.empty()) return "null";
+void append_json_value(std::string& out, const std::string& value) {
+    if (value.empty()) {
+        out += "null";
+        return;
+    }
     std::size_t i = value[0] == '-' ? 1 : 0;
     const std::size_t digits_from = i;
     while (i < value.size() && value[i] >= '0' && value[i] <= '9') ++i;
@@ -31,13 +34,11 @@ std::string json_value(const std::string& value) {
         while (i < value.size() && value[i] >= '0' && value[i] <= '9') ++i;
         number = i > fraction;
     }
-    return number && i == value.size() ? value : json_string(value);
-}
-
-std::string millis_text(Nanos duration) {
-    std::string out;
-    append_with(out, kMaxMillisChars, [&](char* p) { return write_millis(p, duration, 3); });
-    return out;
+    if (number && i == value.size()) {
+        out += value;
+    } else {
+        append_json_string(out, value);
+    }
 }
 
 class JsonlSink final : public RecordSink {
@@ -48,64 +49,131 @@ class JsonlSink final : public RecordSink {
 
     void record(const Record& r) override {
         const bool framed = r.kind != Kind::noise;
-        const std::string time = seconds_text(r.frame.start);
-        const RecordFlags flags = record_flags(r);
-        std::string line =
-            fmt::format("{{\"frame\":{},\"time\":{},", r.number, time.empty() ? "null" : time);
-        line += fmt::format("\"slave\":{},", framed && !r.frame.bytes.empty()
-                                                 ? std::to_string(r.frame.slave())
-                                                 : "null");
-        line += fmt::format("\"function\":{},", framed && r.frame.bytes.size() >= 2
-                                                    ? std::to_string(r.frame.function())
-                                                    : "null");
-        line += fmt::format("\"kind\":\"{}\",\"crc\":\"{}\",", to_string(r.kind),
-                            to_string(r.frame.crc.status));
-        line += fmt::format("\"request\":{},",
-                            r.request_number != 0 ? std::to_string(r.request_number) : "null");
-        line += fmt::format("\"latency_ms\":{},",
-                            has_time(r.latency) ? millis_text(r.latency) : "null");
-        line += "\"summary\":" + json_string(record_summary(r)) + ",";
-        line += "\"hex\":\"" + hex_bytes(r.frame.bytes, false) + "\",";
-        line += "\"flags\":" + json_list(flags.ids) + ",\"notes\":" + json_list(flags.texts) + ",";
-        line += "\"channel\":" + (r.frame.channel.empty() ? "null" : json_string(r.frame.channel));
-        line += ",\"function_name\":" +
-                (framed ? json_string(r.decoded.function_name) : std::string("null"));
-        if (r.decoded.exception) {
-            const char* name = exception_name(r.decoded.exception_code);
-            line += fmt::format(",\"exception\":{{\"code\":{},\"name\":{}}}",
-                                r.decoded.exception_code, name ? json_string(name) : "null");
+        std::string& line = out_.text();
+        auto append_number_or_null = [&](bool known, std::uint64_t value) {
+            if (known) {
+                append_uint(line, value);
+            } else {
+                line += "null";
+            }
+        };
+        line += "{\"frame\":";
+        append_uint(line, r.number);
+        line += ",\"time\":";
+        if (has_time(r.frame.start)) {
+            append_seconds(line, r.frame.start);
         } else {
-            line += ",\"exception\":null";
+            line += "null";
         }
-        line += ",\"profile\":" + (r.profile ? json_string(r.profile->name) : "null");
+        line += ",\"slave\":";
+        append_number_or_null(framed && !r.frame.bytes.empty(), r.frame.slave());
+        line += ",\"function\":";
+        append_number_or_null(framed && r.frame.bytes.size() >= 2, r.frame.function());
+        line += ",\"kind\":\"";
+        line += to_string(r.kind);
+        line += "\",\"crc\":\"";
+        line += to_string(r.frame.crc.status);
+        line += "\",\"request\":";
+        append_number_or_null(r.request_number != 0, r.request_number);
+        line += ",\"latency_ms\":";
+        if (has_time(r.latency)) {
+            append_with(line, kMaxMillisChars,
+                        [&](char* p) { return write_millis(p, r.latency, 3); });
+        } else {
+            line += "null";
+        }
+        line += ",\"summary\":";
+        summary_.clear();
+        append_summary(summary_, r);
+        append_json_string(line, summary_);
+        line += ",\"hex\":\"";
+        append_hex(line, r.frame.bytes, false);
+        line += "\",\"flags\":";
+        // Only notes and values give flags.
+        const RecordFlags flags =
+            r.notes.empty() && r.values.empty() ? RecordFlags{} : record_flags(r);
+        append_json_list(line, flags.ids);
+        line += ",\"notes\":";
+        append_json_list(line, flags.texts);
+        line += ",\"channel\":";
+        if (r.frame.channel.empty()) {
+            line += "null";
+        } else {
+            append_json_string(line, r.frame.channel);
+        }
+        line += ",\"function_name\":";
+        if (framed) {
+            append_json_string(line, r.decoded.function_name);
+        } else {
+            line += "null";
+        }
+        line += ",\"exception\":";
+        if (r.decoded.exception) {
+            line += "{\"code\":";
+            append_uint(line, r.decoded.exception_code);
+            line += ",\"name\":";
+            const char* name = exception_name(r.decoded.exception_code);
+            if (name != nullptr) {
+                append_json_string(line, name);
+            } else {
+                line += "null";
+            }
+            line += '}';
+        } else {
+            line += "null";
+        }
+        line += ",\"profile\":";
+        if (r.profile != nullptr) {
+            append_json_string(line, r.profile->name);
+        } else {
+            line += "null";
+        }
         line += ",\"values\":[";
         for (std::size_t i = 0; i < r.values.size(); ++i) {
             const DecodedValue& v = r.values[i];
-            std::vector<std::string> ids;
-            std::vector<std::string> texts;
-            for (const Note& n : v.notes) {
-                ids.emplace_back(n.id);
-                texts.push_back(n.text);
+            if (i > 0) line += ',';
+            line += "{\"address\":";
+            append_uint(line, v.address);
+            line += ",\"name\":";
+            if (v.name.empty()) {
+                line += "null";
+            } else {
+                append_json_string(line, v.name);
             }
-            line += fmt::format(
-                "{}{{\"address\":{},\"name\":{},\"value\":{},\"unit\":{},\"raw\":{},\"flags\":{},"
-                "\"notes\":{}}}",
-                i > 0 ? "," : "", v.address, v.name.empty() ? "null" : json_string(v.name),
-                json_value(v.value), json_string(v.unit), json_string(v.raw), json_list(ids),
-                json_list(texts));
+            line += ",\"value\":";
+            append_json_value(line, v.value);
+            line += ",\"unit\":";
+            append_json_string(line, v.unit);
+            line += ",\"raw\":";
+            append_json_string(line, v.raw);
+            line += ",\"flags\":[";
+            for (std::size_t n = 0; n < v.notes.size(); ++n) {
+                if (n > 0) line += ',';
+                append_json_string(line, v.notes[n].id);
+            }
+            line += "],\"notes\":[";
+            for (std::size_t n = 0; n < v.notes.size(); ++n) {
+                if (n > 0) line += ',';
+                append_json_string(line, v.notes[n].text);
+            }
+            line += "]}";
         }
         line += "]}\n";
-        std::fwrite(line.data(), 1, line.size(), out_);
+        out_.record_done();
     }
 
-    void flush() override { std::fflush(out_); }
+    void flush() override {
+        out_.send();
+        std::fflush(out_.file());
+    }
 
     void end(const Totals& /*totals*/, const std::vector<std::string>& /*remarks*/) override {
-        std::fflush(out_);
+        flush();
     }
 
   private:
-    std::FILE* out_;
+    BlockOutput out_;
+    std::string summary_;  // reused
 };
 
 }  // namespace

@@ -173,4 +173,18 @@ std::string json_string(std::string_view raw) {
     return out;
 }
 
+void append_json_string(std::string& out, std::string_view text) {
+    // Printable ASCII other than " and \ is written as it is: no need to clean or escape.
+    const bool plain = std::all_of(text.begin(), text.end(), [](char c) {
+        return c >= 0x20 && c < 0x7F && c != '"' && c != '\\';
+    });
+    if (!plain) {
+        out += json_string(text);
+        return;
+    }
+    out += '"';
+    out += text;
+    out += '"';
+}
+
 }  // namespace rtuscope

@@ -8,6 +8,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <array>
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
@@ -85,11 +86,18 @@ inline char* write_millis(char* p, Nanos duration, int decimals) {
 
 // An RFC 4180 field, quoted when it holds a comma, a quote or a line break; at most
 // 2 * size + 2 characters.
+inline bool needs_csv_quotes(std::string_view text) {
+    static constexpr auto kSpecial = [] {
+        std::array<bool, 256> special{};
+        special[','] = special['"'] = special['\r'] = special['\n'] = true;
+        return special;
+    }();
+    return std::any_of(text.begin(), text.end(),
+                       [](char c) { return kSpecial[static_cast<unsigned char>(c)]; });
+}
+
 inline char* write_csv_field(char* p, std::string_view text) {
-    const bool plain = std::none_of(text.begin(), text.end(), [](char c) {
-        return c == ',' || c == '"' || c == '\r' || c == '\n';
-    });
-    if (plain) return write_text(p, text);
+    if (!needs_csv_quotes(text)) return write_text(p, text);
     *p++ = '"';
     for (const char c : text) {
         if (c == '"') *p++ = '"';

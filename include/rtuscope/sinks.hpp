@@ -40,6 +40,7 @@ void append_csv_field(std::string& out, std::string_view text);
 // A JSON string literal, quotes included (RFC 8259 escapes); bytes that are not UTF-8
 // become U+FFFD, as JSON must be UTF-8.
 std::string json_string(std::string_view text);
+void append_json_string(std::string& out, std::string_view text);
 // What the `flags` and `notes` columns hold: the record's note ids (each once) and
 // texts, then its register values' anomalies (`name: text`), unlisted registers counted.
 struct RecordFlags {
