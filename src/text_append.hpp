@@ -28,6 +28,12 @@ inline char* write_uint(char* p, std::uint64_t value) {
     return p + text.size();
 }
 
+// Exactly `digits` digits, zero-padded: the fraction of a time, a clock field.
+inline char* write_digits(char* p, std::uint64_t value, int digits) {
+    for (int i = digits - 1; i >= 0; --i, value /= 10) p[i] = static_cast<char>('0' + value % 10);
+    return p + digits;
+}
+
 inline char* write_text(char* p, std::string_view text) {
     std::memcpy(p, text.data(), text.size());
     return p + text.size();
@@ -55,9 +61,7 @@ inline char* write_seconds(char* p, Nanos time) {
     if (negative) *p++ = '-';
     p = write_uint(p, micros / 1'000'000);
     *p++ = '.';
-    std::uint64_t rest = micros % 1'000'000;
-    for (int i = 5; i >= 0; --i, rest /= 10) p[i] = static_cast<char>('0' + rest % 10);
-    return p + 6;
+    return write_digits(p, micros % 1'000'000, 6);
 }
 
 // Milliseconds with 2 or 3 decimals, exactly as fmt's "{:.2f}"/"{:.3f}" write ns / 1e6
@@ -79,9 +83,7 @@ inline char* write_millis(char* p, Nanos duration, int decimals) {
     if (negative) *p++ = '-';
     p = write_uint(p, steps / steps_per_ms);
     *p++ = '.';
-    std::uint64_t rest = steps % steps_per_ms;
-    for (int i = decimals - 1; i >= 0; --i, rest /= 10) p[i] = static_cast<char>('0' + rest % 10);
-    return p + decimals;
+    return write_digits(p, steps % steps_per_ms, decimals);
 }
 
 // An RFC 4180 field, quoted when it holds a comma, a quote or a line break; at most
@@ -119,6 +121,32 @@ void append_with(std::string& out, std::size_t bound, Write write) {
 inline void append_uint(std::string& out, std::uint64_t value) {
     const fmt::format_int text(value);
     out.append(text.data(), text.size());
+}
+
+// `text` padded with spaces to `width` columns, on the left (right-aligned) or the right,
+// as fmt's "{:>N}" / "{:<N}" pad it. fmt counts columns, not bytes, for non-ASCII text:
+// such text is left to fmt.
+inline void append_padded(std::string& out, std::string_view text, std::size_t width,
+                          bool right_aligned) {
+    const bool ascii = std::all_of(text.begin(), text.end(),
+                                   [](char c) { return static_cast<unsigned char>(c) < 0x80; });
+    if (!ascii) {
+        if (right_aligned) {
+            fmt::format_to(std::back_inserter(out), "{:>{}}", text, width);
+        } else {
+            fmt::format_to(std::back_inserter(out), "{:<{}}", text, width);
+        }
+        return;
+    }
+    const std::size_t padding = width > text.size() ? width - text.size() : 0;
+    if (right_aligned) out.append(padding, ' ');
+    out += text;
+    if (!right_aligned) out.append(padding, ' ');
+}
+
+inline void append_padded(std::string& out, std::uint64_t value, std::size_t width) {
+    const fmt::format_int text(value);
+    append_padded(out, std::string_view(text.data(), text.size()), width, true);
 }
 
 // "0x1A2B": 6 characters.

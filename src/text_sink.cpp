@@ -14,11 +14,19 @@ namespace {
 constexpr Nanos kAbsoluteFrom = 1'000'000'000 * kNanosPerSecond;
 constexpr std::size_t kNoiseBytesShown = 16;
 
+// "08:00:00.001667"
 void append_time_of_day(std::string& out, Nanos time) {
     const std::uint64_t micros = (static_cast<std::uint64_t>(time) + 500) / 1000;
     const std::uint64_t seconds = micros / 1'000'000 % 86'400;
-    fmt::format_to(std::back_inserter(out), "{:02}:{:02}:{:02}.{:06}", seconds / 3600,
-                   seconds / 60 % 60, seconds % 60, micros % 1'000'000);
+    append_with(out, 15, [&](char* p) {
+        p = write_digits(p, seconds / 3600, 2);
+        *p++ = ':';
+        p = write_digits(p, seconds / 60 % 60, 2);
+        *p++ = ':';
+        p = write_digits(p, seconds % 60, 2);
+        *p++ = '.';
+        return write_digits(p, micros % 1'000'000, 6);
+    });
 }
 
 const char* arrow(const Record& r) {
@@ -56,13 +64,16 @@ class TextSink final : public RecordSink {
     void record(const Record& r) override {
         std::string& line = out_.text();
         const std::size_t line_start = line.size();
-        auto out = std::back_inserter(line);
         time_text_.clear();
         append_time_column(time_text_, r.frame.start);
-        fmt::format_to(out, "{:>5} {:>15}  ", r.number, time_text_);
+        append_padded(line, r.number, 5);
+        line += ' ';
+        append_padded(line, time_text_, 15, true);
+        line += "  ";
         const bool framed = r.kind != Kind::noise;
         if (framed) {
-            fmt::format_to(out, "{:>3} ", r.frame.slave());
+            append_padded(line, r.frame.slave(), 3);
+            line += ' ';
         } else {
             line += "    ";
         }
@@ -85,7 +96,7 @@ class TextSink final : public RecordSink {
             summary = noise_summary_;
         }
         column_.clear();
-        fmt::format_to(std::back_inserter(column_), "{:<30}", function);
+        append_padded(column_, function, 30, false);
         append_painted(line, column_, colour_of(r));
         line += ' ';
         line += summary;
@@ -98,7 +109,8 @@ class TextSink final : public RecordSink {
                 return write_uint(p, r.request_number);
             });
         } else if (r.request_number != 0) {
-            fmt::format_to(out, "  answers #{}", r.request_number);
+            line += "  answers #";
+            append_uint(line, r.request_number);
         }
         if (!r.notes.empty()) {
             std::string notes = "! ";
@@ -113,7 +125,7 @@ class TextSink final : public RecordSink {
         while (line.size() > line_start && line.back() == ' ') line.pop_back();
         line += '\n';
         if (options_.hex && framed) {
-            fmt::format_to(out, "{:>28}", "");
+            line.append(28, ' ');
             append_hex(line, r.frame.bytes, true);
             line += '\n';
         }
