@@ -72,26 +72,6 @@ std::uint16_t crc16_modbus_update(std::uint16_t crc, std::span<const std::uint8_
     return crc;
 }
 
-CrcCheck check_crc(std::span<const std::uint8_t> frame) {
-    CrcCheck check;
-    if (frame.size() < 3) {
-        check.status = CrcStatus::bad;
-        return check;
-    }
-    const std::size_t n = frame.size();
-    check.expected = crc16_modbus(frame.first(n - 2));
-    check.received = static_cast<std::uint16_t>(frame[n - 2] | (frame[n - 1] << 8));
-    const auto swapped = static_cast<std::uint16_t>((check.expected >> 8) | (check.expected << 8));
-    if (check.received == check.expected) {
-        check.status = CrcStatus::ok;
-    } else if (check.received == swapped) {
-        check.status = CrcStatus::swapped;
-    } else {
-        check.status = CrcStatus::bad;
-    }
-    return check;
-}
-
 const char* to_string(CrcStatus status) {
     switch (status) {
         case CrcStatus::none:

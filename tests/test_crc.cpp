@@ -90,6 +90,12 @@ TEST(Crc, EveryLengthAndSplitAgreesWithTheBitwiseDefinition) {
         std::uint16_t byte_by_byte = 0xFFFF;
         for (const std::uint8_t byte : bytes) byte_by_byte = crc16_modbus_byte(byte_by_byte, byte);
         ASSERT_EQ(byte_by_byte, expected) << n << " bytes one at a time";
+        std::uint16_t two_at_a_time = 0xFFFF;
+        for (std::size_t i = 0; i + 1 < n; i += 2) {
+            two_at_a_time = crc16_modbus_2(two_at_a_time, bytes[i], bytes[i + 1]);
+        }
+        if (n % 2 == 1) two_at_a_time = crc16_modbus_byte(two_at_a_time, bytes[n - 1]);
+        ASSERT_EQ(two_at_a_time, expected) << n << " bytes two at a time";
     }
 }
 

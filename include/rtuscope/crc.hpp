@@ -23,6 +23,12 @@ inline std::uint16_t crc16_modbus_byte(std::uint16_t crc, std::uint8_t byte) {
     return static_cast<std::uint16_t>((crc >> 8) ^ detail::kCrcTables[0][(crc ^ byte) & 0xFFU]);
 }
 
+// Two bytes more, inline, with two independent lookups (slicing-by-2).
+inline std::uint16_t crc16_modbus_2(std::uint16_t crc, std::uint8_t first, std::uint8_t second) {
+    return static_cast<std::uint16_t>(detail::kCrcTables[1][(crc ^ first) & 0xFFU] ^
+                                      detail::kCrcTables[0][((crc >> 8) ^ second) & 0xFFU]);
+}
+
 enum class CrcStatus : std::uint8_t {
     none,     // not a frame (noise)
     ok,       // last two bytes are the CRC, low byte first
@@ -36,8 +42,28 @@ struct CrcCheck {
     std::uint16_t received = 0;  // last two bytes read low byte first
 };
 
-// A frame of fewer than 3 bytes cannot carry a CRC and checks as bad.
-CrcCheck check_crc(std::span<const std::uint8_t> frame);
+// A frame of fewer than 3 bytes cannot carry a CRC and checks as bad. Inline: returned
+// from a call, the 6-byte result was packed through the stack and read back whole, a
+// store-forwarding stall that cost more than the CRC of a short frame.
+inline CrcCheck check_crc(std::span<const std::uint8_t> frame) {
+    CrcCheck check;
+    if (frame.size() < 3) {
+        check.status = CrcStatus::bad;
+        return check;
+    }
+    const std::size_t n = frame.size();
+    check.expected = crc16_modbus(frame.first(n - 2));
+    check.received = static_cast<std::uint16_t>(frame[n - 2] | (frame[n - 1] << 8));
+    const auto swapped = static_cast<std::uint16_t>((check.expected >> 8) | (check.expected << 8));
+    if (check.received == check.expected) {
+        check.status = CrcStatus::ok;
+    } else if (check.received == swapped) {
+        check.status = CrcStatus::swapped;
+    } else {
+        check.status = CrcStatus::bad;
+    }
+    return check;
+}
 
 const char* to_string(CrcStatus status);
 
