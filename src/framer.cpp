@@ -95,7 +95,11 @@ void Framer::push(const Chunk& chunk) {
     Piece piece;
     piece.first = base_ + bytes_.size();
     piece.first_start = first_start;
-    if (has_time(chunk.time)) piece.first_end = first_start + (chunk.time - first_start) / n;
+    if (has_time(chunk.time)) {
+        piece.step = (chunk.time - first_start) / n;
+        piece.step_remainder = (chunk.time - first_start) % n;
+        piece.first_end = first_start + piece.step;
+    }
     piece.time = chunk.time;
     piece.gap = gap;
     piece.line = chunk.source_line;
@@ -148,12 +152,19 @@ std::uint64_t Framer::piece_end(const Piece& piece) const {
 Nanos Framer::byte_end(std::size_t at) const {
     const Piece& p = piece_of(at);
     if (!has_time(p.time)) return kNoTime;
-    // Spread evenly over the chunk, its last byte ending at the chunk's time.
+    // Spread evenly over the chunk, its last byte ending at the chunk's time:
+    // first_start + span * (i + 1) / n. With span = step * n + step_remainder that is
+    // step * (i + 1) + step_remainder * (i + 1) / n, whose division is of numbers below
+    // n * n, not of nanoseconds: a 64-bit division per frame was a measurable part of a
+    // decode, a 32-bit one is several times cheaper.
     const auto i = static_cast<Nanos>(base_ + at - p.first);
     if (i == 0) return p.first_end;
     const auto n = static_cast<Nanos>(piece_end(p) - p.first);
     if (i + 1 == n) return p.time;
-    return p.first_start + (p.time - p.first_start) * (i + 1) / n;
+    const Nanos part = p.step_remainder * (i + 1);
+    const Nanos extra =
+        n < (1 << 15) ? static_cast<std::int32_t>(part) / static_cast<std::int32_t>(n) : part / n;
+    return p.first_start + p.step * (i + 1) + extra;
 }
 
 Nanos Framer::gap_at(std::size_t at) const {

@@ -66,7 +66,7 @@ void Transactions::release() {
     const std::size_t keep_from = awaiting_ ? *awaiting_ : count_;
     for (std::size_t i = 0; i < keep_from; ++i) {
         emit_(std::move(held(0)));
-        head_ = (head_ + 1) % ring_.size();
+        if (++head_ == ring_.size()) head_ = 0;
         --count_;
     }
     if (awaiting_) awaiting_ = 0;

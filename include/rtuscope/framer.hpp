@@ -99,8 +99,11 @@ class Framer {
         std::uint64_t first = 0;      // stream index of its first byte (base_ + buffer index)
         Nanos first_start = kNoTime;  // its first byte's estimated start
         Nanos first_end = kNoTime;    // its first byte's estimated end (asked for every frame)
-        Nanos time = kNoTime;         // its last byte's end (the chunk's time)
-        Nanos gap = kNoTime;          // silence before its first byte; kBoundary at a start
+        // (time - first_start) / bytes and its remainder: see byte_end.
+        Nanos step = 0;
+        Nanos step_remainder = 0;
+        Nanos time = kNoTime;  // its last byte's end (the chunk's time)
+        Nanos gap = kNoTime;   // silence before its first byte; kBoundary at a start
         int line = 0;
         std::uint16_t channel = 0;
         bool exact = false;  // it and the chunk before came alone (per-byte timing)
