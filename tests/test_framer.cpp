@@ -319,10 +319,12 @@ TEST(Framer, TimesAndLinesStayRightAcrossLargeChunksAndBufferCompaction) {
         n = n == 7001 ? 3 : 7001;
         const std::size_t end = std::min(all.size(), at + n);
         const int line = static_cast<int>(chunks.size()) + 1;
-        chunks.push_back({static_cast<Nanos>(end) * ch, "",
+        chunks.push_back({static_cast<Nanos>(end) * ch,
+                          "",
                           Bytes(all.begin() + static_cast<std::ptrdiff_t>(at),
                                 all.begin() + static_cast<std::ptrdiff_t>(end)),
-                          line, {}});
+                          line,
+                          {}});
         line_of_byte.insert(line_of_byte.end(), end - at, line);
     }
     Harness h;
@@ -335,6 +337,29 @@ TEST(Framer, TimesAndLinesStayRightAcrossLargeChunksAndBufferCompaction) {
         ASSERT_EQ(r[i].frame.end, static_cast<Nanos>(first + kRead.size()) * ch) << "record " << i;
         ASSERT_EQ(r[i].frame.source_line, line_of_byte[first]) << "record " << i;
     }
+}
+
+// A chunk handed over sooner than its bytes could have come (the adapter held the first
+// frame back): its bytes are spread evenly from the end of the previous chunk to its
+// own time, each byte ending at first + span * (k + 1) / n, in whole nanoseconds.
+TEST(Framer, BytesOfALateChunkAreSpreadEvenlyToTheNanosecond) {
+    const Nanos ch = Line().char_time();
+    const Nanos first_time = kNanosPerSecond;
+    const Nanos span = 1'000'003;  // far less than 17 characters take, and not a multiple of 17
+    Bytes both = kRead;
+    both.insert(both.end(), kReadAnswer.begin(), kReadAnswer.end());
+    const auto n = static_cast<Nanos>(both.size());
+    auto byte_end = [&](Nanos k) { return first_time + span * (k + 1) / n; };
+
+    Harness h;
+    const auto& r = h.run({{first_time, "", kRead, 1, {}}, {first_time + span, "", both, 2, {}}});
+    ASSERT_EQ(r.size(), 3U);
+    expect_frame(r[1], kRead, Kind::request);
+    expect_frame(r[2], kReadAnswer, Kind::response);
+    EXPECT_EQ(r[1].frame.start, byte_end(0) - ch);
+    EXPECT_EQ(r[1].frame.end, byte_end(7));
+    EXPECT_EQ(r[2].frame.start, byte_end(8) - ch);
+    EXPECT_EQ(r[2].frame.end, first_time + span);
 }
 
 }  // namespace
