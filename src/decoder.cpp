@@ -420,17 +420,25 @@ void read_registers_response(Decoder& d, DataTable table) {
 //   +----+---------+------------------------+
 //     1       2               2
 
-std::string coil_value_text(std::uint16_t value) {
-    if (value == kCoilOn) return "ON";
-    if (value == kCoilOff) return "OFF";
-    return fmt::format("0x{:04X}", value);
+void append_single_coil(std::string& s, Bytes b) {
+    const auto address = u16_at(b, 0);
+    const auto value = u16_at(b, 2);
+    if (address) append_hex4(s, *address);
+    if (value) {
+        if (address) s += ' ';
+        if (*value == kCoilOn) {
+            s += "ON";
+        } else if (*value == kCoilOff) {
+            s += "OFF";
+        } else {
+            append_hex4(s, *value);
+        }
+    }
 }
 
 std::string single_coil_text(Bytes b) {
-    const auto address = u16_at(b, 0);
-    const auto value = u16_at(b, 2);
-    std::string s = address ? fmt::format("0x{:04X}", *address) : "";
-    if (value) s += (s.empty() ? "" : " ") + coil_value_text(*value);
+    std::string s;
+    append_single_coil(s, b);
     return s;
 }
 
@@ -438,7 +446,7 @@ void write_single_coil(Decoder& d) {
     d.expect_size(5);
     const auto address = u16_at(d.data, 0);
     const auto value = u16_at(d.data, 2);
-    d.out.summary = single_coil_text(d.data);
+    append_single_coil(d.out.summary, d.data);
     if (value && *value != kCoilOn && *value != kCoilOff) {
         d.note(note_id::illegal_value,
                fmt::format("coil value 0x{:04X}, 0xFF00 or 0x0000 expected", *value));

@@ -40,12 +40,21 @@ inline char* write_text(char* p, std::string_view text) {
 }
 
 // Two digits per byte, and a space between bytes when `spaced`: at most 3 per byte.
+// Both digits of a byte come from one table entry: every frame's bytes are written so.
 inline char* write_hex(char* p, std::span<const std::uint8_t> bytes, bool spaced) {
-    static constexpr char kDigits[] = "0123456789ABCDEF";
+    static constexpr auto kPairs = [] {
+        constexpr char kDigits[] = "0123456789ABCDEF";
+        std::array<char, 512> pairs{};
+        for (std::size_t b = 0; b < 256; ++b) {
+            pairs[2 * b] = kDigits[b >> 4];
+            pairs[2 * b + 1] = kDigits[b & 0xFU];
+        }
+        return pairs;
+    }();
     for (std::size_t i = 0; i < bytes.size(); ++i) {
         if (spaced && i > 0) *p++ = ' ';
-        *p++ = kDigits[bytes[i] >> 4];
-        *p++ = kDigits[bytes[i] & 0xFU];
+        std::memcpy(p, &kPairs[2 * std::size_t{bytes[i]}], 2);
+        p += 2;
     }
     return p;
 }
