@@ -202,6 +202,7 @@ Framer::Attempt Framer::attempt_at(std::size_t at, bool at_end) const {
     const std::size_t avail = bytes_.size() - at;
     if (avail < 2) {
         none.outcome = at_end ? Outcome::no_frame : Outcome::need_more;
+        none.wanted = 2;
         return none;
     }
     const auto head = std::span(bytes_).subspan(at, std::min(avail, kMaxAdu));
@@ -234,7 +235,11 @@ Framer::Attempt Framer::attempt_at(std::size_t at, bool at_end) const {
         return response;
     };
 
-    bool pending = false;
+    // Bytes (from `at`) a reading still waits for; 0: none waits.
+    std::size_t wanted = 0;
+    auto wait_for = [&](std::size_t bytes) {
+        wanted = wanted == 0 ? bytes : std::min(wanted, bytes);
+    };
     bool searched = false;
     Attempt best;
     auto better = [&](const Attempt& a, const Attempt& b, bool a_gap, bool b_gap) {
@@ -261,12 +266,12 @@ Framer::Attempt Framer::attempt_at(std::size_t at, bool at_end) const {
                 continue;
             case FrameLength::Kind::need_more:
                 // More bytes would tell the length (head is all that is buffered).
-                if (!at_end && head.size() < kMaxAdu) pending = true;
+                if (!at_end && head.size() < kMaxAdu) wait_for(length.bytes);
                 continue;
             case FrameLength::Kind::fixed: {
                 if (length.bytes < kMinAdu) continue;
                 if (length.bytes > avail) {
-                    if (!at_end) pending = true;
+                    if (!at_end) wait_for(length.bytes);
                     continue;
                 }
                 candidate.length = length.bytes;
@@ -281,7 +286,7 @@ Framer::Attempt Framer::attempt_at(std::size_t at, bool at_end) const {
                 if (searched) continue;
                 searched = true;
                 const Search found = search_length(at, at_end, true);
-                if (found.pending) pending = true;
+                if (found.pending) wait_for(avail + 1);  // a gap may end the search
                 if (found.length == 0) continue;
                 candidate.length = found.length;
                 candidate.crc = check_crc(head.first(found.length));
@@ -298,8 +303,9 @@ Framer::Attempt Framer::attempt_at(std::size_t at, bool at_end) const {
         }
     }
 
-    if (pending) {
+    if (wanted != 0) {
         none.outcome = Outcome::need_more;
+        none.wanted = wanted;
         return none;
     }
     if (best.outcome != Outcome::frame) return none;
@@ -375,8 +381,15 @@ Framer::Follows Framer::what_follows(std::size_t end, bool at_end) const {
 
 void Framer::decide(bool at_end) {
     while (pos_ < bytes_.size()) {
+        // The last attempt here waits for more bytes than have come: nothing can change
+        // before they have (slow lines hand frames over in many small chunks).
+        if (!at_end && base_ + pos_ == waiting_at_ && bytes_.size() - pos_ < waiting_for_) break;
         const Attempt here = attempt_at(pos_, at_end);
-        if (here.outcome == Outcome::need_more) break;
+        if (here.outcome == Outcome::need_more) {
+            waiting_at_ = base_ + pos_;
+            waiting_for_ = here.wanted;
+            break;
+        }
         if (here.outcome == Outcome::frame) {
             Notes notes;
             if (here.delimiter == Delimiter::crc_search) {

@@ -58,6 +58,7 @@ class Framer {
         Reading reading = Reading::unknown;
         Delimiter delimiter = Delimiter::length_crc;
         CrcCheck crc;
+        std::size_t wanted = 0;  // need_more: how many bytes from here before trying again
     };
 
     struct Search {
@@ -144,6 +145,9 @@ class Framer {
     Frame frame_;  // the record being emitted, reused
     std::size_t pos_ = 0;
     std::size_t scan_hint_ = 0;  // bytes before it are known to start no frame
+    // The stream index where an attempt waits for more bytes, and how many it waits for.
+    std::uint64_t waiting_at_ = ~std::uint64_t{0};
+    std::size_t waiting_for_ = 0;
     std::vector<std::string> channels_;
     Nanos last_end_ = kNoTime;
     bool seen_bytes_ = false;
