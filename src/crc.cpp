@@ -62,9 +62,7 @@ std::uint16_t crc16_modbus_update(std::uint16_t crc, std::span<const std::uint8_
         n -= 4;
     }
     if (n >= 2) {
-        const auto b0 = static_cast<std::uint8_t>(p[0] ^ (crc & 0xFFU));
-        const auto b1 = static_cast<std::uint8_t>(p[1] ^ (crc >> 8));
-        crc = static_cast<std::uint16_t>(kTables[1][b0] ^ kTables[0][b1]);
+        crc = crc16_modbus_2(crc, p[0], p[1]);
         p += 2;
         n -= 2;
     }
