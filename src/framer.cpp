@@ -98,7 +98,6 @@ void Framer::push(const Chunk& chunk) {
     if (has_time(chunk.time)) {
         piece.step = (chunk.time - first_start) / n;
         piece.step_remainder = (chunk.time - first_start) % n;
-        piece.first_end = first_start + piece.step;
     }
     piece.time = chunk.time;
     piece.gap = gap;
@@ -158,7 +157,7 @@ Nanos Framer::byte_end(std::size_t at) const {
     // n * n, not of nanoseconds: a 64-bit division per frame was a measurable part of a
     // decode, a 32-bit one is several times cheaper.
     const auto i = static_cast<Nanos>(base_ + at - p.first);
-    if (i == 0) return p.first_end;
+    if (i == 0) return p.first_start + p.step;
     const auto n = static_cast<Nanos>(piece_end(p) - p.first);
     if (i + 1 == n) return p.time;
     const Nanos part = p.step_remainder * (i + 1);

@@ -99,7 +99,6 @@ class Framer {
     struct Piece {
         std::uint64_t first = 0;      // stream index of its first byte (base_ + buffer index)
         Nanos first_start = kNoTime;  // its first byte's estimated start
-        Nanos first_end = kNoTime;    // its first byte's estimated end (asked for every frame)
         // (time - first_start) / bytes and its remainder: see byte_end.
         Nanos step = 0;
         Nanos step_remainder = 0;
