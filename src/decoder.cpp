@@ -71,13 +71,10 @@ Bytes slice(Bytes b, std::size_t at, std::size_t n = std::numeric_limits<std::si
 // ---------------------------------------------------------------------------------
 // Formatting
 
+// "01 03 00 00"
 std::string hex_bytes(Bytes b) {
     std::string s;
-    s.reserve(b.size() * 3);
-    for (std::size_t i = 0; i < b.size(); ++i) {
-        if (i != 0) s += ' ';
-        s += fmt::format("{:02X}", b[i]);
-    }
+    append_with(s, 3 * b.size(), [&](char* p) { return write_hex(p, b, true); });
     return s;
 }
 
