@@ -10,23 +10,27 @@
 
 namespace rtuscope {
 
-Bus::Bus() {
-    for (const Profile& p : bundled_profiles()) profiles_.push_back(p);
+std::deque<Profile>& Bus::known() const {
+    if (!bundled_added_) {
+        profiles_.assign(bundled_profiles().begin(), bundled_profiles().end());
+        bundled_added_ = true;
+    }
+    return profiles_;
 }
 
 void Bus::add_profile(Profile profile) {
-    for (Profile& existing : profiles_) {
+    for (Profile& existing : known()) {
         if (existing.name == profile.name) {
             // Slaves already assigned keep pointing at this slot, now the user's profile.
             existing = std::move(profile);
             return;
         }
     }
-    profiles_.push_back(std::move(profile));
+    known().push_back(std::move(profile));
 }
 
 const Profile* Bus::find_profile(std::string_view name) const {
-    for (const Profile& p : profiles_) {
+    for (const Profile& p : known()) {
         if (p.name == name) return &p;
     }
     return nullptr;
@@ -34,7 +38,7 @@ const Profile* Bus::find_profile(std::string_view name) const {
 
 std::vector<const Profile*> Bus::profiles() const {
     std::vector<const Profile*> all;
-    for (const Profile& p : profiles_) all.push_back(&p);
+    for (const Profile& p : known()) all.push_back(&p);
     std::sort(all.begin(), all.end(),
               [](const Profile* a, const Profile* b) { return a->name < b->name; });
     return all;

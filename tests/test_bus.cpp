@@ -213,6 +213,28 @@ TEST(Bus, DeviceOption) {
     EXPECT_FALSE(assign_device_option(bus, "uv-test"));
 }
 
+// The bundled profiles are parsed on first use; a user's profile of the same name must
+// still replace one, whether it comes before or after the first lookup.
+TEST(Bus, UsersProfileReplacesTheBundledOneOfTheSameName) {
+    Bus before_lookup;
+    Profile own = uv_like();
+    own.name = "pdu485";
+    before_lookup.add_profile(own);
+    ASSERT_NE(before_lookup.find_profile("pdu485"), nullptr);
+    EXPECT_EQ(before_lookup.find_profile("pdu485")->broadcast, 255);
+    EXPECT_NE(before_lookup.find_profile("zyi-relay"), nullptr);
+    EXPECT_EQ(before_lookup.profiles().size(), 4U);
+
+    Bus after_assign;
+    ASSERT_TRUE(assign_device_option(after_assign, "3=pdu485"));
+    const Profile* slot = after_assign.profile_for(3);
+    EXPECT_NE(slot->broadcast, 255);
+    after_assign.add_profile(own);
+    EXPECT_EQ(after_assign.profile_for(3), slot);  // the same slot, now the user's profile
+    EXPECT_EQ(after_assign.profile_for(3)->broadcast, 255);
+    EXPECT_EQ(after_assign.profiles().size(), 4U);
+}
+
 TEST(Bus, BusFileErrorsNameTheLine) {
     const std::string path = ::testing::TempDir() + "/bus_test.toml";
     {

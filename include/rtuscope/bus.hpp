@@ -19,7 +19,7 @@ namespace rtuscope {
 
 class Bus {
   public:
-    Bus();  // knows the bundled profiles
+    Bus() = default;  // knows the bundled profiles (parsed when first asked for)
     // The address map points into the profile list: moving keeps those pointers valid
     // (a deque's elements stay where they are), copying would not.
     Bus(const Bus&) = delete;
@@ -46,7 +46,12 @@ class Bus {
     void set_line(LineSettings line) { line_ = line; }
 
   private:
-    std::deque<Profile> profiles_;  // stable addresses for the pointers below
+    // Every known profile, the bundled ones first. Parsing those was a third of start-up,
+    // and most decodes name no device: they are parsed here, on first use.
+    std::deque<Profile>& known() const;
+
+    mutable std::deque<Profile> profiles_;  // stable addresses for the pointers below
+    mutable bool bundled_added_ = false;
     std::array<const Profile*, 256> by_address_{};
     std::optional<LineSettings> line_;
 };
