@@ -149,7 +149,10 @@ std::uint64_t Framer::piece_end(const Piece& piece) const {
 }
 
 Nanos Framer::byte_end(std::size_t at) const {
-    const Piece& p = piece_of(at);
+    return byte_end(piece_of(at), at);
+}
+
+Nanos Framer::byte_end(const Piece& p, std::size_t at) const {
     if (!has_time(p.time)) return kNoTime;
     // Spread evenly over the chunk, its last byte ending at the chunk's time:
     // first_start + span * (i + 1) / n. With span = step * n + step_remainder that is
@@ -241,18 +244,19 @@ Framer::Attempt Framer::attempt_at(std::size_t at, bool at_end) const {
     };
     bool searched = false;
     Attempt best;
-    auto better = [&](const Attempt& a, const Attempt& b, bool a_gap, bool b_gap) {
+    auto followed_by_gap = [&](const Attempt& a) {
+        const std::size_t end = at + a.length;
+        return end == bytes_.size() ? at_end : gap_before(end);
+    };
+    auto better = [&](const Attempt& a, const Attempt& b) {
         if ((a.crc.status == CrcStatus::ok) != (b.crc.status == CrcStatus::ok)) {
             return a.crc.status == CrcStatus::ok;
         }
         const bool a_answer = a.reading != Reading::request;
         if (a_answer != (b.reading != Reading::request)) return a_answer == prefers_response();
-        if (a_gap != b_gap) return a_gap;
+        const bool a_gap = followed_by_gap(a);
+        if (a_gap != followed_by_gap(b)) return a_gap;
         return a.length < b.length;
-    };
-    auto followed_by_gap = [&](const Attempt& a) {
-        const std::size_t end = at + a.length;
-        return end == bytes_.size() ? at_end : gap_before(end);
     };
 
     for (const Role role : {Role::request, Role::response}) {
@@ -296,8 +300,7 @@ Framer::Attempt Framer::attempt_at(std::size_t at, bool at_end) const {
                 break;
             }
         }
-        if (best.outcome != Outcome::frame ||
-            better(candidate, best, followed_by_gap(candidate), followed_by_gap(best))) {
+        if (best.outcome != Outcome::frame || better(candidate, best)) {
             best = candidate;
         }
     }
@@ -561,18 +564,19 @@ void Framer::emit(std::size_t at, std::size_t length, RecordClass cls, Reading r
     frame.reading = reading;
     frame.delimiter = delimiter;
     frame.crc = crc;
-    const Nanos first_end = byte_end(at);
-    frame.start = has_time(first_end) ? first_end - char_time_ : kNoTime;
-    frame.end = byte_end(at + length - 1);
-    const Nanos gap = gap_at(at);
-    frame.silence_before = is_measured(gap) ? gap : kNoTime;
+    // The piece is looked up once: a frame's fields are asked of it several times.
     const Piece& piece = piece_of(at);
+    const Nanos first_end = byte_end(piece, at);
+    frame.start = has_time(first_end) ? first_end - char_time_ : kNoTime;
+    const bool starts_piece = piece.first == base_ + at;
+    frame.silence_before = starts_piece && is_measured(piece.gap) ? piece.gap : kNoTime;
     frame.channel = channels_[piece.channel];
     frame.source_line = piece.line;
     // Noise and frames cut short come without a CRC check, so without a CRC note.
     add_crc_note(frame);
     frame.notes.insert(frame.notes.end(), notes.begin(), notes.end());
-    if (cls != RecordClass::noise) add_timing_notes(frame, at, length);
+    if (cls != RecordClass::noise) add_timing_notes(frame, piece, at, length);
+    frame.end = byte_end(at + length - 1);
     std::string hit;
     for (const std::size_t j : char_errors_) {
         if (j >= at && j < at + length) {
@@ -594,11 +598,11 @@ void Framer::emit(std::size_t at, std::size_t length, RecordClass cls, Reading r
     emit_(frame);
 }
 
-void Framer::add_timing_notes(Frame& frame, std::size_t at, std::size_t length) const {
+void Framer::add_timing_notes(Frame& frame, const Piece& first, std::size_t at,
+                              std::size_t length) const {
     // Only per-byte timing (one byte per chunk) measures real silences; a chunk of many
     // bytes only says when the adapter handed them over.
     auto measured = [](const Piece& p) { return p.exact && is_measured(p.gap); };
-    const Piece& first = piece_of(at);
     if (first.first == base_ + at && measured(first) && first.gap < t35_) {
         frame.notes.push_back(
             {note_id::short_gap,

@@ -92,7 +92,6 @@ class Framer {
     // `crc`: the check the caller made (none for noise and for frames cut short).
     void emit(std::size_t at, std::size_t length, RecordClass cls, Reading reading,
               Delimiter delimiter, CrcCheck crc, Notes notes);
-    void add_timing_notes(Frame& frame, std::size_t at, std::size_t length) const;
 
     // One pushed chunk: what is known of its bytes' timing. Kept per chunk, not per byte:
     // with seven per-byte arrays the bookkeeping cost more than the framing.
@@ -122,6 +121,10 @@ class Framer {
     [[nodiscard]] const Piece& find_piece(std::size_t at) const;
     [[nodiscard]] std::uint64_t piece_end(const Piece& piece) const;
     [[nodiscard]] Nanos byte_end(std::size_t at) const;
+    [[nodiscard]] Nanos byte_end(const Piece& piece, std::size_t at) const;  // `at` in `piece`
+    // `first`: the piece byte `at` came in.
+    void add_timing_notes(Frame& frame, const Piece& first, std::size_t at,
+                          std::size_t length) const;
     // The silence measured before byte `at`: kNoTime inside a chunk.
     [[nodiscard]] Nanos gap_at(std::size_t at) const;
 
