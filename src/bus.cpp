@@ -23,6 +23,7 @@ void Bus::add_profile(Profile profile) {
         if (existing.name == profile.name) {
             // Slaves already assigned keep pointing at this slot, now the user's profile.
             existing = std::move(profile);
+            update_owners();  // its broadcast address may differ
             return;
         }
     }
@@ -52,6 +53,7 @@ Status Bus::assign(std::uint8_t address, std::string_view profile_name) {
         return Error{fmt::format("unknown profile \"{}\" (known: {})", profile_name, known)};
     }
     by_address_[address] = profile;
+    update_owners();
     return ok_status();
 }
 
@@ -60,12 +62,18 @@ const Profile* Bus::profile_for(std::uint8_t address) const {
 }
 
 const Profile* Bus::owner(std::uint8_t slave) const {
-    if (const Profile* p = by_address_[slave]) return p;
-    if (slave == 0) return nullptr;
+    return owners_[slave];
+}
+
+void Bus::update_owners() {
+    owners_ = by_address_;
+    // An address of no device is owned by the first device (by address) that broadcasts
+    // on it; 0, the standard broadcast address, never so.
     for (const Profile* p : by_address_) {
-        if (p != nullptr && p->broadcast == slave) return p;
+        if (p == nullptr || !p->broadcast || *p->broadcast == 0) continue;
+        const Profile*& owner = owners_[*p->broadcast];
+        if (owner == nullptr) owner = p;
     }
-    return nullptr;
 }
 
 bool Bus::empty() const {

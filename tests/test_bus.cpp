@@ -214,7 +214,8 @@ TEST(Bus, DeviceOption) {
 }
 
 // The bundled profiles are parsed on first use; a user's profile of the same name must
-// still replace one, whether it comes before or after the first lookup.
+// still replace one, whether it comes before or after the first lookup, and bring its
+// broadcast address with it.
 TEST(Bus, UsersProfileReplacesTheBundledOneOfTheSameName) {
     Bus before_lookup;
     Profile own = uv_like();
@@ -229,9 +230,11 @@ TEST(Bus, UsersProfileReplacesTheBundledOneOfTheSameName) {
     ASSERT_TRUE(assign_device_option(after_assign, "3=pdu485"));
     const Profile* slot = after_assign.profile_for(3);
     EXPECT_NE(slot->broadcast, 255);
+    EXPECT_EQ(after_assign.owner(255), nullptr);
     after_assign.add_profile(own);
     EXPECT_EQ(after_assign.profile_for(3), slot);  // the same slot, now the user's profile
     EXPECT_EQ(after_assign.profile_for(3)->broadcast, 255);
+    EXPECT_EQ(after_assign.owner(255), slot);  // its broadcast address is now the device's
     EXPECT_EQ(after_assign.profiles().size(), 4U);
 }
 

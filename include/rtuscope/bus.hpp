@@ -53,6 +53,11 @@ class Bus {
     mutable std::deque<Profile> profiles_;  // stable addresses for the pointers below
     mutable bool bundled_added_ = false;
     std::array<const Profile*, 256> by_address_{};
+    // owner() of every address, worked out whenever the map or a profile changes: it is
+    // asked several times per frame, and searching the map each time made decoding with
+    // profiles several times slower than without.
+    std::array<const Profile*, 256> owners_{};
+    void update_owners();
     std::optional<LineSettings> line_;
 };
 
