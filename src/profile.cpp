@@ -12,20 +12,29 @@ const FunctionOverride* Profile::function(std::uint8_t code) const {
     return nullptr;
 }
 
-const Register* Profile::register_covering(const std::string& table, std::uint16_t address) const {
-    // Registers are sorted by (table, address) and do not overlap, so the candidate is
-    // the last one that starts at or before `address`.
-    auto after = std::upper_bound(
-        registers.begin(), registers.end(), std::pair(&table, address),
-        [](const std::pair<const std::string*, std::uint16_t>& key, const Register& r) {
-            if (*key.first != r.table) return *key.first < r.table;
-            return key.second < r.address;
-        });
-    if (after == registers.begin()) return nullptr;
+std::span<const Register> Profile::registers_in(std::string_view table) const {
+    struct ByTable {
+        bool operator()(const Register& r, std::string_view t) const { return r.table < t; }
+        bool operator()(std::string_view t, const Register& r) const { return t < r.table; }
+    };
+    const auto [first, last] = std::equal_range(registers.begin(), registers.end(), table, ByTable{});
+    return {first, last};
+}
+
+const Register* Profile::covering(std::span<const Register> table, std::uint16_t address) {
+    // Registers are sorted by address and do not overlap, so the candidate is the last
+    // one that starts at or before `address`.
+    const auto after =
+        std::upper_bound(table.begin(), table.end(), address,
+                         [](std::uint16_t a, const Register& r) { return a < r.address; });
+    if (after == table.begin()) return nullptr;
     const Register& candidate = *std::prev(after);
-    if (candidate.table != table) return nullptr;
     if (address - candidate.address >= candidate.length) return nullptr;
     return &candidate;
+}
+
+const Register* Profile::register_covering(const std::string& table, std::uint16_t address) const {
+    return covering(registers_in(table), address);
 }
 
 const Register* Profile::register_at(const std::string& table, std::uint16_t address) const {

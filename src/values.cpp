@@ -5,7 +5,10 @@
 // profiles are written by hand.
 #include "rtuscope/values.hpp"
 
+#include <fmt/compile.h>
 #include <fmt/format.h>
+
+#include "text_append.hpp"
 
 #include <algorithm>
 #include <bit>
@@ -35,13 +38,23 @@ bool is_integer_type(ValueType type) {
            type == ValueType::i32;
 }
 
+// Each value of a device read shows its words and its number: written directly, not
+// through format strings, which were most of the cost of decoding with a profile.
 std::string hex_words(Words words) {
     std::string out;
-    for (const std::uint16_t w : words) {
-        if (!out.empty()) out += ' ';
-        out += fmt::format("0x{:04X}", w);
-    }
+    append_with(out, 7 * words.size(), [&](char* p) {
+        for (std::size_t i = 0; i < words.size(); ++i) {
+            if (i > 0) *p++ = ' ';
+            p = write_hex4(p, words[i]);
+        }
+        return p;
+    });
     return out;
+}
+
+std::string decimal(std::int64_t value) {
+    const fmt::format_int text(value);
+    return {text.data(), text.size()};
 }
 
 const char* bit_text(std::uint16_t item) {
@@ -49,11 +62,10 @@ const char* bit_text(std::uint16_t item) {
 }
 
 // fmt prints IEEE negative zero as "-0" / "-0.0", which reads like a sign error.
-std::string without_negative_zero(std::string text) {
+void drop_negative_zero(std::string& text) {
     if (text.size() > 1 && text[0] == '-' && text.find_first_not_of("0.", 1) == std::string::npos) {
         text.erase(0, 1);
     }
-    return text;
 }
 
 // The fewest decimals that show every multiple of `scale` exactly (0.1 -> 1, 0.5 -> 1,
@@ -90,25 +102,27 @@ NumberStyle style_for(const Register& reg, bool bit_table) {
     return {NumberStyle::Kind::shortest_double, 0};
 }
 
+// Compiled format strings: parsing them at run time cost as much as formatting the number.
 std::string format_number(double value, const NumberStyle& style) {
     std::string text;
     switch (style.kind) {
         case NumberStyle::Kind::fixed:
-            text = fmt::format("{:.{}f}", value, style.decimals);
+            text = fmt::format(FMT_COMPILE("{:.{}f}"), value, style.decimals);
             break;
         case NumberStyle::Kind::integer:
             // Exact for register values; a fractional range bound keeps its fraction.
-            text = value == std::trunc(value) ? fmt::format("{:.0f}", value)
-                                              : fmt::format("{}", value);
+            text = value == std::trunc(value) ? fmt::format(FMT_COMPILE("{:.0f}"), value)
+                                              : fmt::format(FMT_COMPILE("{}"), value);
             break;
         case NumberStyle::Kind::shortest_float:
-            text = fmt::format("{}", static_cast<float>(value));
+            text = fmt::format(FMT_COMPILE("{}"), static_cast<float>(value));
             break;
         case NumberStyle::Kind::shortest_double:
-            text = fmt::format("{}", value);
+            text = fmt::format(FMT_COMPILE("{}"), value);
             break;
     }
-    return without_negative_zero(std::move(text));
+    drop_negative_zero(text);
+    return text;
 }
 
 std::string with_unit(std::string text, const std::string& unit) {
@@ -144,7 +158,7 @@ void set_number(const Register& reg, RawNumber raw, bool bit_table, DecodedValue
     const double value = raw.is_real ? static_cast<double>(raw.real) * reg.scale
                                      : static_cast<double>(raw.integer) * reg.scale;
     if (style.kind == NumberStyle::Kind::integer && !raw.is_real) {
-        v.value = fmt::format("{}", raw.integer);
+        v.value = decimal(raw.integer);
     } else {
         v.value = format_number(value, style);
     }
@@ -219,8 +233,8 @@ void note_access_mismatch(const Register& reg, bool write, DecodedValue& v) {
 DecodedValue unlisted(std::uint16_t address, std::uint16_t word, bool bit_table) {
     DecodedValue v;
     v.address = address;
-    v.value = bit_table ? bit_text(word) : fmt::format("{}", word);
-    v.raw = bit_table ? bit_text(word) : fmt::format("0x{:04X}", word);
+    v.value = bit_table ? bit_text(word) : decimal(word);
+    v.raw = bit_table ? std::string(bit_text(word)) : hex_words(Words(&word, 1));
     v.notes.push_back({note_id::value_unlisted, "not in the profile"});
     return v;
 }
@@ -356,18 +370,19 @@ std::vector<DecodedValue> decode_values(const Profile& profile, const DataBlock&
         std::min<std::size_t>(block.values.size(), std::size_t{0x10000} - block.start);
     const Words words(block.values.data(), count);
 
+    const std::span<const Register> table_registers = profile.registers_in(table);
     std::vector<DecodedValue> out;
     out.reserve(count);
     for (std::size_t i = 0; i < count;) {
         const auto address = static_cast<std::uint16_t>(block.start + i);
+        const Register* reg = Profile::covering(table_registers, address);
         if (bit_table) {
-            const Register* reg = profile.register_at(table, address);
+            if (reg != nullptr && reg->address != address) reg = nullptr;
             out.push_back(reg != nullptr ? decode_bit(*reg, address, words[i], block.write)
                                          : unlisted(address, words[i], true));
             ++i;
             continue;
         }
-        const Register* reg = profile.register_covering(table, address);
         // The lookup trusts the profile's order; an unsorted profile must not lead us to a
         // register that does not actually cover this address.
         if (reg == nullptr || reg->address > address ||

@@ -7,7 +7,9 @@
 #include <cstdint>
 #include <map>
 #include <optional>
+#include <span>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "rtuscope/line_settings.hpp"
@@ -85,6 +87,12 @@ struct Profile {
     // too), or nullptr.
     [[nodiscard]] const Register* register_covering(const std::string& table,
                                                     std::uint16_t address) const;
+    // The registers of one table, in address order: a block is of one table, so it is
+    // looked up once per block, not once per value.
+    [[nodiscard]] std::span<const Register> registers_in(std::string_view table) const;
+    // register_covering within what registers_in gave.
+    [[nodiscard]] static const Register* covering(std::span<const Register> table,
+                                                  std::uint16_t address);
 };
 
 // One mistake in a profile file, with its position.
