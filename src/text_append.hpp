@@ -5,6 +5,7 @@
 // the end of what they wrote.
 #pragma once
 
+#include <fmt/compile.h>
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -23,9 +24,7 @@ namespace rtuscope {
 inline constexpr std::size_t kMaxUintChars = 20;
 
 inline char* write_uint(char* p, std::uint64_t value) {
-    const fmt::format_int text(value);
-    std::memcpy(p, text.data(), text.size());
-    return p + text.size();
+    return fmt::format_to(p, FMT_COMPILE("{}"), value);
 }
 
 // Exactly `digits` digits, zero-padded: the fraction of a time, a clock field.
