@@ -170,7 +170,10 @@ Nanos Framer::byte_end(const Piece& p, std::size_t at) const {
 }
 
 Nanos Framer::gap_at(std::size_t at) const {
-    const Piece& p = piece_of(at);
+    return gap_at(piece_of(at), at);
+}
+
+Nanos Framer::gap_at(const Piece& p, std::size_t at) const {
     return p.first == base_ + at ? p.gap : kNoTime;
 }
 
@@ -568,15 +571,15 @@ void Framer::emit(std::size_t at, std::size_t length, RecordClass cls, Reading r
     const Piece& piece = piece_of(at);
     const Nanos first_end = byte_end(piece, at);
     frame.start = has_time(first_end) ? first_end - char_time_ : kNoTime;
-    const bool starts_piece = piece.first == base_ + at;
-    frame.silence_before = starts_piece && is_measured(piece.gap) ? piece.gap : kNoTime;
+    frame.end = byte_end(at + length - 1);
+    const Nanos gap = gap_at(piece, at);
+    frame.silence_before = is_measured(gap) ? gap : kNoTime;
     frame.channel = channels_[piece.channel];
     frame.source_line = piece.line;
     // Noise and frames cut short come without a CRC check, so without a CRC note.
     add_crc_note(frame);
     frame.notes.insert(frame.notes.end(), notes.begin(), notes.end());
     if (cls != RecordClass::noise) add_timing_notes(frame, piece, at, length);
-    frame.end = byte_end(at + length - 1);
     std::string hit;
     for (const std::size_t j : char_errors_) {
         if (j >= at && j < at + length) {

@@ -127,6 +127,7 @@ class Framer {
                           std::size_t length) const;
     // The silence measured before byte `at`: kNoTime inside a chunk.
     [[nodiscard]] Nanos gap_at(std::size_t at) const;
+    [[nodiscard]] Nanos gap_at(const Piece& piece, std::size_t at) const;  // `at` in `piece`
 
     FramerOptions options_;
     Emit emit_;
