@@ -8,13 +8,13 @@
 #include <fmt/compile.h>
 #include <fmt/format.h>
 
-#include "text_append.hpp"
-
 #include <algorithm>
 #include <bit>
 #include <cmath>
 #include <cstddef>
 #include <span>
+
+#include "text_append.hpp"
 
 namespace rtuscope {
 
