@@ -571,24 +571,23 @@ void Framer::emit(std::size_t at, std::size_t length, RecordClass cls, Reading r
     const Piece& piece = piece_of(at);
     const Nanos first_end = byte_end(piece, at);
     frame.start = has_time(first_end) ? first_end - char_time_ : kNoTime;
-    frame.end = byte_end(at + length - 1);
+    // Most frames lie within one chunk, whose piece is at hand.
+    const bool within_piece = base_ + at + length <= piece_end(piece);
+    frame.end = within_piece ? byte_end(piece, at + length - 1) : byte_end(at + length - 1);
     const Nanos gap = gap_at(piece, at);
     frame.silence_before = is_measured(gap) ? gap : kNoTime;
-    frame.channel = channels_[piece.channel];
+    const std::string& channel = channels_[piece.channel];
+    if (frame.channel != channel) frame.channel = channel;
     frame.source_line = piece.line;
     // Noise and frames cut short come without a CRC check, so without a CRC note.
     add_crc_note(frame);
     frame.notes.insert(frame.notes.end(), notes.begin(), notes.end());
-    if (cls != RecordClass::noise) add_timing_notes(frame, piece, at, length);
-    std::string hit;
-    for (const std::size_t j : char_errors_) {
-        if (j >= at && j < at + length) {
-            hit += (hit.empty() ? "" : ", ") + std::to_string(j - at + 1);
-        }
+    // Silences are measured only before a chunk's first byte: a frame in the middle of
+    // one chunk has none to note.
+    if (cls != RecordClass::noise && (piece.first == base_ + at || !within_piece)) {
+        add_timing_notes(frame, piece, at, length);
     }
-    if (!hit.empty()) {
-        frame.notes.push_back({note_id::char_error, "parity/framing error on byte " + hit});
-    }
+    if (!char_errors_.empty()) add_char_error_note(frame, at, length);
     for (const auto& [index, back] : time_jumps_) {
         if (index >= at && index < at + length) {
             frame.notes.push_back(
@@ -599,6 +598,18 @@ void Framer::emit(std::size_t at, std::size_t length, RecordClass cls, Reading r
     pos_ = at + length;
     scan_hint_ = 0;
     emit_(frame);
+}
+
+void Framer::add_char_error_note(Frame& frame, std::size_t at, std::size_t length) const {
+    std::string hit;
+    for (const std::size_t j : char_errors_) {
+        if (j >= at && j < at + length) {
+            hit += (hit.empty() ? "" : ", ") + std::to_string(j - at + 1);
+        }
+    }
+    if (!hit.empty()) {
+        frame.notes.push_back({note_id::char_error, "parity/framing error on byte " + hit});
+    }
 }
 
 void Framer::add_timing_notes(Frame& frame, const Piece& first, std::size_t at,
