@@ -2,27 +2,84 @@
 // whole input into memory first so that only the framer (and, for a capture, the capture
 // parser) is timed.
 //
-//   rtuscope_bench_frame FILE [raw|capture] [repeat]
+//   rtuscope_bench_frame FILE [raw|capture|scan] [repeat]
+//
+// `scan` times no framer but what its core costs by itself: a raw dump walked by the
+// standard rules' lengths, both readings' CRCs checked at each position, with no record
+// built, no length search and no timing. It shows how far the framer's other work (and
+// this way of finding frames) is from a speed goal.
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <chrono>
+#include <cstdint>
 #include <cstdio>
 #include <fstream>
 #include <iterator>
+#include <span>
 #include <string>
 
+#include "rtuscope/crc.hpp"
 #include "rtuscope/framer.hpp"
+#include "rtuscope/protocol_rules.hpp"
 #include "rtuscope/sources.hpp"
+
+namespace {
+
+// The frames a bare boundary scan finds: at each position the shorter reading whose
+// length the standard rules give and whose CRC checks is a frame; otherwise one byte on.
+std::uint64_t boundary_scan(std::span<const std::uint8_t> bytes) {
+    const rtuscope::ProtocolRules& rules = rtuscope::standard_rules();
+    std::uint64_t frames = 0;
+    std::size_t at = 0;
+    while (at + rtuscope::kMinAdu <= bytes.size()) {
+        const auto head = bytes.subspan(at, std::min(bytes.size() - at, rtuscope::kMaxAdu));
+        std::size_t length = 0;
+        for (const rtuscope::Role role : {rtuscope::Role::request, rtuscope::Role::response}) {
+            const rtuscope::FrameLength fits = rules.frame_length(head, role);
+            if (fits.kind != rtuscope::FrameLength::Kind::fixed || fits.bytes < rtuscope::kMinAdu ||
+                fits.bytes > head.size()) {
+                continue;
+            }
+            if (rtuscope::check_crc(head.first(fits.bytes)).status == rtuscope::CrcStatus::ok &&
+                (length == 0 || fits.bytes < length)) {
+                length = fits.bytes;
+            }
+        }
+        frames += length != 0;
+        at += length != 0 ? length : 1;
+    }
+    return frames;
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
     if (argc < 2) {
-        fmt::print(stderr, "usage: rtuscope_bench_frame FILE [raw|capture] [repeat]\n");
+        fmt::print(stderr, "usage: rtuscope_bench_frame FILE [raw|capture|scan] [repeat]\n");
         return 2;
     }
     std::ifstream in(argv[1], std::ios::binary);
     const std::string content((std::istreambuf_iterator<char>(in)), {});
     const std::string mode = argc > 2 ? argv[2] : "raw";
     const int repeat = argc > 3 ? std::stoi(argv[3]) : 1;
+    if (mode == "scan") {
+        const auto bytes =
+            std::span(reinterpret_cast<const std::uint8_t*>(content.data()), content.size());
+        double best = 1e300;
+        std::uint64_t frames = 0;
+        for (int r = 0; r < repeat; ++r) {
+            const auto t0 = std::chrono::steady_clock::now();
+            frames = boundary_scan(bytes);
+            best = std::min(
+                best, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+        }
+        fmt::print(
+            "scan {} bytes, {} frames (no records): {:.3f} s, {:.1f} MB/s, {:.2f} M frames/s\n",
+            content.size(), frames, best, static_cast<double>(content.size()) / best / 1e6,
+            static_cast<double>(frames) / best / 1e6);
+        return 0;
+    }
     const auto format =
         mode == "capture" ? rtuscope::InputFormat::capture : rtuscope::InputFormat::raw;
 
