@@ -8,8 +8,8 @@
 #include <string>
 #include <vector>
 
-#include "rtuscope/sources.hpp"
 #include "rtuscope/sinks.hpp"
+#include "rtuscope/sources.hpp"
 #include "rtuscope/stats.hpp"
 #include "support.hpp"
 
@@ -310,6 +310,38 @@ TEST(StatsTurnaround, PercentilesOfAnswers1To100Ms) {
     EXPECT_EQ(row.turnarounds.size(), 100U);
     EXPECT_EQ(nearest_rank(row.turnarounds, 50), 50 * kMs);
     EXPECT_EQ(nearest_rank(row.turnarounds, 99), 99 * kMs);
+}
+
+TEST(StatsCycle, EachRowsPollIsTheMostFrequentOfItsOwnSlaveAndFunction) {
+    // Polls of neighbouring keys in the map, some more frequent than the row's own: slave
+    // 1 FC01 and FC04 around slave 1 FC03, slave 2 FC03 after it.
+    const Bytes coils = with_crc({0x01, 0x01, 0x00, 0x00, 0x00, 0x08});
+    const Bytes low = with_crc({0x01, 0x03, 0x00, 0x00, 0x00, 0x01});
+    const Bytes high = with_crc({0x01, 0x03, 0xFF, 0xFF, 0x00, 0x01});
+    const Bytes inputs = with_crc({0x01, 0x04, 0x00, 0x00, 0x00, 0x01});
+    const Bytes other_slave = with_crc({0x02, 0x03, 0x00, 0x00, 0x00, 0x01});
+    BusStats s;
+    Nanos t = 0;
+    auto poll = [&](const Bytes& request, int times) {
+        for (int i = 0; i < times; ++i) s.add(make_record(Kind::request, request, (t += 10) * kMs));
+    };
+    poll(coils, 5);
+    poll(low, 2);
+    poll(high, 3);
+    poll(inputs, 6);
+    poll(other_slave, 7);
+    s.finish();
+
+    const auto* fc03 = s.main_poll(BusStats::Key{1, 3});
+    ASSERT_NE(fc03, nullptr);
+    EXPECT_EQ(fc03->first.data, (std::array<std::uint8_t, 4>{0xFF, 0xFF, 0x00, 0x01}));
+    EXPECT_EQ(fc03->second.requests, 3U);
+    EXPECT_EQ(s.main_poll(BusStats::Key{1, 1})->second.requests, 5U);
+    EXPECT_EQ(s.main_poll(BusStats::Key{1, 4})->second.requests, 6U);
+    EXPECT_EQ(s.main_poll(BusStats::Key{2, 3})->second.requests, 7U);
+    EXPECT_EQ(s.main_poll(BusStats::Key{2, 4}), nullptr);
+    EXPECT_EQ(s.main_poll(BusStats::Key{0, 3}), nullptr);
+    EXPECT_EQ(s.main_poll(std::nullopt)->first.slave, 2U);
 }
 
 TEST(StatsCycle, MedianAndMaxOfTheMostFrequentPoll) {
