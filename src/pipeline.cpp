@@ -151,9 +151,7 @@ void decode_record(Record& record, const Bus* bus) {
     }
     if (record.profile != nullptr) {
         for (const DataBlock& block : record.decoded.blocks) {
-            std::vector<DecodedValue> values = decode_values(*record.profile, block);
-            record.values.insert(record.values.end(), std::make_move_iterator(values.begin()),
-                                 std::make_move_iterator(values.end()));
+            decode_values(*record.profile, block, record.values);
         }
     }
 }

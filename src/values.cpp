@@ -362,6 +362,12 @@ const char* table_name(DataTable table) {
 }
 
 std::vector<DecodedValue> decode_values(const Profile& profile, const DataBlock& block) {
+    std::vector<DecodedValue> out;
+    decode_values(profile, block, out);
+    return out;
+}
+
+void decode_values(const Profile& profile, const DataBlock& block, std::vector<DecodedValue>& out) {
     const std::string table =
         block.custom_table.empty() ? std::string(table_name(block.table)) : block.custom_table;
     const bool bit_table = is_bit_table(table);
@@ -371,8 +377,6 @@ std::vector<DecodedValue> decode_values(const Profile& profile, const DataBlock&
     const Words words(block.values.data(), count);
 
     const std::span<const Register> table_registers = profile.registers_in(table);
-    std::vector<DecodedValue> out;
-    out.reserve(count);
     for (std::size_t i = 0; i < count;) {
         const auto address = static_cast<std::uint16_t>(block.start + i);
         const Register* reg = Profile::covering(table_registers, address);
@@ -401,7 +405,6 @@ std::vector<DecodedValue> decode_values(const Profile& profile, const DataBlock&
         }
         i += present;
     }
-    return out;
 }
 
 }  // namespace rtuscope

@@ -33,6 +33,8 @@ struct DecodedValue {
 // come out one per register with an empty name and a value.unlisted note; a 32-bit
 // register only half in the block comes out with its half and a value.partial note.
 std::vector<DecodedValue> decode_values(const Profile& profile, const DataBlock& block);
+// The same, appended to `out` (a record's values, whose buffer is reused record after record).
+void decode_values(const Profile& profile, const DataBlock& block, std::vector<DecodedValue>& out);
 
 // The profile table a block of a standard function code belongs to.
 const char* table_name(DataTable table);
