@@ -9,10 +9,12 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <array>
 #include <bit>
 #include <cmath>
 #include <cstddef>
 #include <span>
+#include <string_view>
 
 #include "text_append.hpp"
 
@@ -55,6 +57,47 @@ std::string hex_words(Words words) {
 std::string decimal(std::int64_t value) {
     const fmt::format_int text(value);
     return {text.data(), text.size()};
+}
+
+// 10^-decimals as the profile loader computes it for `decimals = N`.
+double inverse_power_of_ten(int decimals) {
+    static const std::array<double, 10> kPowers = [] {
+        std::array<double, 10> powers{};
+        for (std::size_t d = 0; d < powers.size(); ++d) {
+            powers[d] = std::pow(10.0, -static_cast<double>(d));
+        }
+        return powers;
+    }();
+    return decimals >= 0 && static_cast<std::size_t>(decimals) < kPowers.size()
+               ? kPowers[static_cast<std::size_t>(decimals)]
+               : 0.0;
+}
+
+// raw / 10^decimals written exactly: the digits of raw with a decimal point put in
+// ("2205", 1 -> "220.5"; "-5", 2 -> "-0.05"). For |raw| < 2^51 that is what fmt's
+// "{:.{decimals}f}" prints for the double raw * 10^-decimals, which lies within
+// |raw| * 10^-decimals * 2^-52 of the exact value, far inside half a unit of the last
+// decimal; and it costs a fraction of formatting the double.
+std::string shifted_decimal(std::int64_t raw, int decimals) {
+    const std::uint64_t magnitude = raw < 0 ? std::uint64_t{0} - static_cast<std::uint64_t>(raw)
+                                            : static_cast<std::uint64_t>(raw);
+    const fmt::format_int text(magnitude);
+    const std::string_view digits(text.data(), text.size());
+    const auto d = static_cast<std::size_t>(decimals);
+    std::string out;
+    if (raw < 0) out += '-';
+    if (digits.size() <= d) {
+        out += "0.";
+        out.append(d - digits.size(), '0');
+        out += digits;
+    } else {
+        out += digits.substr(0, digits.size() - d);
+        if (d > 0) {
+            out += '.';
+            out += digits.substr(digits.size() - d);
+        }
+    }
+    return out;
 }
 
 const char* bit_text(std::uint16_t item) {
@@ -159,6 +202,11 @@ void set_number(const Register& reg, RawNumber raw, bool bit_table, DecodedValue
                                      : static_cast<double>(raw.integer) * reg.scale;
     if (style.kind == NumberStyle::Kind::integer && !raw.is_real) {
         v.value = decimal(raw.integer);
+    } else if (style.kind == NumberStyle::Kind::fixed && !raw.is_real &&
+               reg.scale == inverse_power_of_ten(style.decimals) &&
+               std::abs(raw.integer) < (std::int64_t{1} << 51)) {
+        // `decimals = N` (or a scale of exactly 10^-N) on an integer register, the usual case.
+        v.value = shifted_decimal(raw.integer, style.decimals);
     } else {
         v.value = format_number(value, style);
     }

@@ -1,8 +1,10 @@
 // Register values explained with a profile: types, scales, word orders, labels, and the
 // value.* notes for blocks that cut registers, registers the profile does not list,
 // out-of-range values and writes.
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <string>
 #include <vector>
 
@@ -106,6 +108,37 @@ std::vector<std::string> note_ids(const DecodedValue& v) {
     std::vector<std::string> ids;
     for (const Note& n : v.notes) ids.emplace_back(n.id);
     return ids;
+}
+
+// `decimals = N` on an integer register is printed from the integer's digits, not by
+// formatting raw * 10^-N as a double: the text must be what fmt prints for that double.
+TEST(Values, DecimalsPrintAsTheScaledDoubleWould) {
+    std::vector<std::int64_t> raws = {
+        0,     1,     -1,     5,     -5,     9,     10,         -10,         99,         100,
+        12345, 32767, -32768, 65535, 999999, -1000, 2147483647, -2147483647, -2147483648};
+    std::uint32_t x = 12345;  // a fixed xorshift sequence: the same values every run
+    for (int i = 0; i < 2000; ++i) {
+        x ^= x << 13U;
+        x ^= x >> 17U;
+        x ^= x << 5U;
+        raws.push_back(static_cast<std::int32_t>(x));
+    }
+    for (int decimals = 0; decimals <= 9; ++decimals) {
+        Profile p;
+        Register r = reg("holding", 0x0000, "value", ValueType::i32, 2);
+        r.decimals = decimals;
+        r.scale = std::pow(10.0, -static_cast<double>(decimals));  // as the loader does
+        p.registers.push_back(r);
+        for (const std::int64_t raw : raws) {
+            const auto word = static_cast<std::uint32_t>(raw);
+            const DecodedValue v = only(
+                decode_values(p, holding(0x0000, {static_cast<std::uint16_t>(word >> 16U),
+                                                  static_cast<std::uint16_t>(word & 0xFFFFU)})));
+            const double scaled = static_cast<double>(raw) * r.scale;
+            ASSERT_EQ(v.value, fmt::format("{:.{}f}", scaled, decimals))
+                << raw << " with " << decimals << " decimals";
+        }
+    }
 }
 
 TEST(Values, TableNames) {
