@@ -74,13 +74,14 @@ RecordFlags record_flags(const Record& record) {
             if (std::string_view(note.id) == note_id::value_unlisted) {
                 ++unlisted;
             } else {
-                add(note.id, fmt::format("{}: {}", v.name, note.text));
+                add(note.id, v.name + ": " + note.text);
             }
         }
     }
     if (unlisted > 0) {
-        add(note_id::value_unlisted,
-            fmt::format("{} register{} not in the profile", unlisted, unlisted == 1 ? "" : "s"));
+        add(note_id::value_unlisted, std::to_string(unlisted) +
+                                         (unlisted == 1 ? " register" : " registers") +
+                                         " not in the profile");
     }
     return flags;
 }

@@ -179,8 +179,7 @@ void check_range(const Register& reg, double value, const NumberStyle& style, De
     if (!below && !above) return;
     std::string text;
     if (reg.min && reg.max) {
-        text = fmt::format("outside {}..{}", format_number(*reg.min, style),
-                           format_number(*reg.max, style));
+        text = "outside " + format_number(*reg.min, style) + ".." + format_number(*reg.max, style);
     } else if (below) {
         text = "below " + format_number(*reg.min, style);
     } else {
@@ -220,8 +219,8 @@ void set_enum(const Register& reg, std::uint32_t raw, DecodedValue& v) {
         v.value = label->second;
         return;
     }
-    v.value = fmt::format("{}", raw);
-    v.notes.push_back({note_id::value_out_of_range, fmt::format("no label for {}", raw)});
+    v.value = decimal(raw);
+    v.notes.push_back({note_id::value_out_of_range, "no label for " + v.value});
 }
 
 std::string bit_names(const Register& reg, std::uint16_t word) {
