@@ -277,36 +277,34 @@ void note_access_mismatch(const Register& reg, bool write, DecodedValue& v) {
     }
 }
 
-DecodedValue unlisted(std::uint16_t address, std::uint16_t word, bool bit_table) {
-    DecodedValue v;
+// The functions below fill `v`, a fresh value already in its place at the end of the
+// record's list: built elsewhere and moved in, its strings were a copy each.
+void unlisted(std::uint16_t address, std::uint16_t word, bool bit_table, DecodedValue& v) {
     v.address = address;
     v.value = bit_table ? bit_text(word) : decimal(word);
     v.raw = bit_table ? std::string(bit_text(word)) : hex_words(Words(&word, 1));
     v.notes.push_back({note_id::value_unlisted, "not in the profile"});
-    return v;
 }
 
 // One coil or discrete input: always a single item, whatever length the profile gives.
-DecodedValue decode_bit(const Register& reg, std::uint16_t address, std::uint16_t item,
-                        bool write) {
-    DecodedValue v;
+void decode_bit(const Register& reg, std::uint16_t address, std::uint16_t item, bool write,
+                DecodedValue& v) {
     v.address = address;
     v.name = reg.name;
     v.raw = bit_text(item);
     note_access_mismatch(reg, write, v);
     const std::uint32_t bit = item != 0 ? 1 : 0;
-    if (write && set_special_write(reg, bit, v)) return v;
+    if (write && set_special_write(reg, bit, v)) return;
     if (reg.type == ValueType::enumeration) {
         set_enum(reg, bit, v);
-        return v;
+        return;
     }
     set_number(reg, {static_cast<std::int64_t>(bit), 0, false}, true, v);
-    return v;
 }
 
 // A register whose every word is in the block.
-DecodedValue decode_register(const Register& reg, std::uint16_t address, Words words, bool write) {
-    DecodedValue v;
+void decode_register(const Register& reg, std::uint16_t address, Words words, bool write,
+                     DecodedValue& v) {
     v.address = address;
     v.name = reg.name;
     v.raw = hex_words(words);
@@ -316,10 +314,10 @@ DecodedValue decode_register(const Register& reg, std::uint16_t address, Words w
         v.notes.push_back(
             {note_id::value_partial,
              fmt::format("a 32-bit value needs 2 registers, the profile gives {}", words.size())});
-        return v;
+        return;
     }
     const std::uint32_t raw = is_32bit(reg.type) ? combine(reg, words) : words[0];
-    if (write && set_special_write(reg, raw, v)) return v;
+    if (write && set_special_write(reg, raw, v)) return;
     switch (reg.type) {
         case ValueType::u16:
         case ValueType::u32:
@@ -344,13 +342,11 @@ DecodedValue decode_register(const Register& reg, std::uint16_t address, Words w
             v.value = ascii_text(words);
             break;
     }
-    return v;
 }
 
 // The words of a register that the block cuts: it starts inside the register, or ends
 // before the register does. Its value cannot be known, so only the raw words are shown.
-DecodedValue partial(const Register& reg, std::uint16_t address, Words present) {
-    DecodedValue v;
+void partial(const Register& reg, std::uint16_t address, Words present, DecodedValue& v) {
     v.address = address;
     v.name = reg.name;
     v.raw = hex_words(present);
@@ -371,25 +367,24 @@ DecodedValue partial(const Register& reg, std::uint16_t address, Words present) 
                            reg.length, span);
     }
     v.notes.push_back({note_id::value_partial, std::move(text)});
-    return v;
 }
 
 // Devices often take a command word written into one half of a 32-bit register (the
 // PDU clears its energy counter when 0xAABB is written to either half): that is the
 // command, not half a value.
-DecodedValue partial_or_command(const Register& reg, std::uint16_t address, Words present,
-                                bool write) {
-    DecodedValue v;
+void partial_or_command(const Register& reg, std::uint16_t address, Words present, bool write,
+                        DecodedValue& v) {
     if (write && present.size() == 1) {
         v.address = address;
         v.name = reg.name;
         v.raw = hex_words(present);
         if (set_special_write(reg, present[0], v)) {
             note_access_mismatch(reg, write, v);
-            return v;
+            return;
         }
+        v = DecodedValue{};
     }
-    return partial(reg, address, present);
+    partial(reg, address, present, v);
 }
 
 }  // namespace
@@ -429,8 +424,11 @@ void decode_values(const Profile& profile, const DataBlock& block, std::vector<D
         const Register* reg = Profile::covering(table_registers, address);
         if (bit_table) {
             if (reg != nullptr && reg->address != address) reg = nullptr;
-            out.push_back(reg != nullptr ? decode_bit(*reg, address, words[i], block.write)
-                                         : unlisted(address, words[i], true));
+            if (reg != nullptr) {
+                decode_bit(*reg, address, words[i], block.write, out.emplace_back());
+            } else {
+                unlisted(address, words[i], true, out.emplace_back());
+            }
             ++i;
             continue;
         }
@@ -438,7 +436,7 @@ void decode_values(const Profile& profile, const DataBlock& block, std::vector<D
         // register that does not actually cover this address.
         if (reg == nullptr || reg->address > address ||
             std::size_t{address} - reg->address >= reg->length) {
-            out.push_back(unlisted(address, words[i], false));
+            unlisted(address, words[i], false, out.emplace_back());
             ++i;
             continue;
         }
@@ -446,9 +444,9 @@ void decode_values(const Profile& profile, const DataBlock& block, std::vector<D
         const std::size_t present = std::min<std::size_t>(reg->length - offset, count - i);
         const Words here = words.subspan(i, present);
         if (offset == 0 && present == reg->length) {
-            out.push_back(decode_register(*reg, address, here, block.write));
+            decode_register(*reg, address, here, block.write, out.emplace_back());
         } else {
-            out.push_back(partial_or_command(*reg, address, here, block.write));
+            partial_or_command(*reg, address, here, block.write, out.emplace_back());
         }
         i += present;
     }
