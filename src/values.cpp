@@ -419,9 +419,18 @@ void decode_values(const Profile& profile, const DataBlock& block, std::vector<D
     const Words words(block.values.data(), count);
 
     const std::span<const Register> table_registers = profile.registers_in(table);
+    // A block's addresses go up: the register after the last one found is usually the
+    // next one asked for, so it is looked at before the table is searched. (The table is
+    // sorted by address without overlaps, so a register that starts at the address is
+    // the one covering it.)
+    const Register* next = table_registers.data();
+    const Register* const end = table_registers.data() + table_registers.size();
     for (std::size_t i = 0; i < count;) {
         const auto address = static_cast<std::uint16_t>(block.start + i);
-        const Register* reg = Profile::covering(table_registers, address);
+        const Register* reg = next != end && next->address == address
+                                  ? next
+                                  : Profile::covering(table_registers, address);
+        if (reg != nullptr) next = reg + 1;
         if (bit_table) {
             if (reg != nullptr && reg->address != address) reg = nullptr;
             if (reg != nullptr) {
