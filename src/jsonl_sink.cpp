@@ -9,6 +9,10 @@
 namespace rtuscope {
 namespace {
 
+// Appended as string_views: a `+= "literal"` counts the literal's length with strlen
+// at run time, some thirty times a line.
+using namespace std::string_view_literals;
+
 void append_json_list(std::string& out, const std::vector<std::string>& items) {
     out += '[';
     for (std::size_t i = 0; i < items.size(); ++i) {
@@ -22,7 +26,7 @@ void append_json_list(std::string& out, const std::vector<std::string>& items) {
 // as a string (an enum label, bit names, a special write's meaning); null when unknown.
 void append_json_value(std::string& out, const std::string& value) {
     if (value.empty()) {
-        out += "null";
+        out += "null"sv;
         return;
     }
     std::size_t i = value[0] == '-' ? 1 : 0;
@@ -54,111 +58,111 @@ class JsonlSink final : public RecordSink {
             if (known) {
                 append_uint(line, value);
             } else {
-                line += "null";
+                line += "null"sv;
             }
         };
-        line += "{\"frame\":";
+        line += "{\"frame\":"sv;
         append_uint(line, r.number);
-        line += ",\"time\":";
+        line += ",\"time\":"sv;
         if (has_time(r.frame.start)) {
             append_seconds(line, r.frame.start);
         } else {
-            line += "null";
+            line += "null"sv;
         }
-        line += ",\"slave\":";
+        line += ",\"slave\":"sv;
         append_number_or_null(framed && !r.frame.bytes.empty(), r.frame.slave());
-        line += ",\"function\":";
+        line += ",\"function\":"sv;
         append_number_or_null(framed && r.frame.bytes.size() >= 2, r.frame.function());
-        line += ",\"kind\":\"";
+        line += ",\"kind\":\""sv;
         line += to_string(r.kind);
-        line += "\",\"crc\":\"";
+        line += "\",\"crc\":\""sv;
         line += to_string(r.frame.crc.status);
-        line += "\",\"request\":";
+        line += "\",\"request\":"sv;
         append_number_or_null(r.request_number != 0, r.request_number);
-        line += ",\"latency_ms\":";
+        line += ",\"latency_ms\":"sv;
         if (has_time(r.latency)) {
             append_with(line, kMaxMillisChars,
                         [&](char* p) { return write_millis(p, r.latency, 3); });
         } else {
-            line += "null";
+            line += "null"sv;
         }
-        line += ",\"summary\":";
+        line += ",\"summary\":"sv;
         summary_.clear();
         append_summary(summary_, r);
         append_json_string(line, summary_);
-        line += ",\"hex\":\"";
+        line += ",\"hex\":\""sv;
         append_hex(line, r.frame.bytes, false);
-        line += "\",\"flags\":";
+        line += "\",\"flags\":"sv;
         // Only notes and values give flags.
         const RecordFlags flags =
             r.notes.empty() && r.values.empty() ? RecordFlags{} : record_flags(r);
         append_json_list(line, flags.ids);
-        line += ",\"notes\":";
+        line += ",\"notes\":"sv;
         append_json_list(line, flags.texts);
-        line += ",\"channel\":";
+        line += ",\"channel\":"sv;
         if (r.frame.channel.empty()) {
-            line += "null";
+            line += "null"sv;
         } else {
             append_json_string(line, r.frame.channel);
         }
-        line += ",\"function_name\":";
+        line += ",\"function_name\":"sv;
         if (framed) {
             append_json_string(line, r.decoded.function_name);
         } else {
-            line += "null";
+            line += "null"sv;
         }
-        line += ",\"exception\":";
+        line += ",\"exception\":"sv;
         if (r.decoded.exception) {
-            line += "{\"code\":";
+            line += "{\"code\":"sv;
             append_uint(line, r.decoded.exception_code);
-            line += ",\"name\":";
+            line += ",\"name\":"sv;
             const char* name = exception_name(r.decoded.exception_code);
             if (name != nullptr) {
                 append_json_string(line, name);
             } else {
-                line += "null";
+                line += "null"sv;
             }
             line += '}';
         } else {
-            line += "null";
+            line += "null"sv;
         }
-        line += ",\"profile\":";
+        line += ",\"profile\":"sv;
         if (r.profile != nullptr) {
             append_json_string(line, r.profile->name);
         } else {
-            line += "null";
+            line += "null"sv;
         }
-        line += ",\"values\":[";
+        line += ",\"values\":["sv;
         for (std::size_t i = 0; i < r.values.size(); ++i) {
             const DecodedValue& v = r.values[i];
             if (i > 0) line += ',';
-            line += "{\"address\":";
+            line += "{\"address\":"sv;
             append_uint(line, v.address);
-            line += ",\"name\":";
+            line += ",\"name\":"sv;
             if (v.name.empty()) {
-                line += "null";
+                line += "null"sv;
             } else {
                 append_json_string(line, v.name);
             }
-            line += ",\"value\":";
+            line += ",\"value\":"sv;
             append_json_value(line, v.value);
-            line += ",\"unit\":";
+            line += ",\"unit\":"sv;
             append_json_string(line, v.unit);
-            line += ",\"raw\":";
+            line += ",\"raw\":"sv;
             append_json_string(line, v.raw);
-            line += ",\"flags\":[";
+            line += ",\"flags\":["sv;
             for (std::size_t n = 0; n < v.notes.size(); ++n) {
                 if (n > 0) line += ',';
                 append_json_string(line, v.notes[n].id);
             }
-            line += "],\"notes\":[";
+            line += "],\"notes\":["sv;
             for (std::size_t n = 0; n < v.notes.size(); ++n) {
                 if (n > 0) line += ',';
                 append_json_string(line, v.notes[n].text);
             }
-            line += "]}";
+            line += "]}"sv;
         }
-        line += "]}\n";
+        line += "]}\n"sv;
         out_.record_done();
     }
 

@@ -9,6 +9,10 @@
 namespace rtuscope {
 namespace {
 
+// Appended as string_views: a `+= "literal"` counts the literal's length with strlen
+// at run time.
+using namespace std::string_view_literals;
+
 // Timestamps from 2001 on are taken as absolute Unix time and shown as time of day (UTC:
 // output must not depend on the machine's zone); smaller ones are relative seconds.
 constexpr Nanos kAbsoluteFrom = 1'000'000'000 * kNanosPerSecond;
@@ -69,13 +73,13 @@ class TextSink final : public RecordSink {
         append_padded(line, r.number, 5);
         line += ' ';
         append_padded(line, time_text_, 15, true);
-        line += "  ";
+        line += "  "sv;
         const bool framed = r.kind != Kind::noise;
         if (framed) {
             append_padded(line, r.frame.slave(), 3);
             line += ' ';
         } else {
-            line += "    ";
+            line += "    "sv;
         }
         append_painted(line, arrow(r), colour_of(r));
         line += ' ';
@@ -92,7 +96,7 @@ class TextSink final : public RecordSink {
             const auto shown = std::min(r.frame.bytes.size(), kNoiseBytesShown);
             noise_summary_.clear();
             append_hex(noise_summary_, std::span(r.frame.bytes).first(shown), true);
-            if (shown < r.frame.bytes.size()) noise_summary_ += " ...";
+            if (shown < r.frame.bytes.size()) noise_summary_ += " ..."sv;
             summary = noise_summary_;
         }
         column_.clear();
@@ -100,7 +104,7 @@ class TextSink final : public RecordSink {
         append_painted(line, column_, colour_of(r));
         line += ' ';
         line += summary;
-        if (r.kind == Kind::broadcast) line += "  (broadcast, no answer expected)";
+        if (r.kind == Kind::broadcast) line += "  (broadcast, no answer expected)"sv;
         if (has_time(r.latency)) {
             append_with(line, kMaxMillisChars + kMaxUintChars + 16, [&](char* p) {
                 p = write_text(p, "  ");
@@ -109,16 +113,16 @@ class TextSink final : public RecordSink {
                 return write_uint(p, r.request_number);
             });
         } else if (r.request_number != 0) {
-            line += "  answers #";
+            line += "  answers #"sv;
             append_uint(line, r.request_number);
         }
         if (!r.notes.empty()) {
             std::string notes = "! ";
             for (std::size_t i = 0; i < r.notes.size(); ++i) {
-                if (i > 0) notes += "; ";
+                if (i > 0) notes += "; "sv;
                 notes += r.notes[i].text;
             }
-            line += "  ";
+            line += "  "sv;
             append_painted(line, notes, fmt::terminal_color::yellow);
         }
         // Trailing spaces come from padding a short last column.
@@ -189,7 +193,7 @@ class TextSink final : public RecordSink {
                 for (std::size_t k = 0; k < v.notes.size(); ++k) {
                     notes += (k > 0 ? "; " : "") + v.notes[k].text;
                 }
-                text += "  ";
+                text += "  "sv;
                 append_painted(text, notes, fmt::terminal_color::yellow);
             }
             out += text + '\n';
