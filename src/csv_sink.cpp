@@ -21,17 +21,20 @@ class CsvSink final : public RecordSink {
         append_summary(summary_, r);
         ids_.clear();
         texts_.clear();
-        if (!r.notes.empty() || !r.values.empty()) {
-            const RecordFlags flags = record_flags(r);
-            for (const std::string& id : flags.ids) {
-                if (!ids_.empty()) ids_ += ' ';
-                ids_ += id;
-            }
-            for (const std::string& text : flags.texts) {
+        seen_ids_.clear();
+        for_each_flag(
+            r, [&](std::string_view id, const std::string* value_name, std::string_view text) {
+                if (first_time(seen_ids_, id)) {
+                    if (!ids_.empty()) ids_ += ' ';
+                    ids_ += id;
+                }
                 if (!texts_.empty()) texts_ += "; ";
+                if (value_name != nullptr) {
+                    texts_ += *value_name;
+                    texts_ += ": ";
+                }
                 texts_ += text;
-            }
-        }
+            });
         // Numbers, time, kind, CRC, latency and commas fit in kFixedChars; quoting at most
         // doubles a field and adds two quotes.
         constexpr std::size_t kFixedChars =
@@ -83,6 +86,7 @@ class CsvSink final : public RecordSink {
     std::string summary_;
     std::string ids_;
     std::string texts_;
+    std::vector<std::string_view> seen_ids_;
 };
 
 }  // namespace

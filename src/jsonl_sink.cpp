@@ -13,15 +13,6 @@ namespace {
 // at run time, some thirty times a line.
 using namespace std::string_view_literals;
 
-void append_json_list(std::string& out, const std::vector<std::string>& items) {
-    out += '[';
-    for (std::size_t i = 0; i < items.size(); ++i) {
-        if (i > 0) out += ',';
-        append_json_string(out, items[i]);
-    }
-    out += ']';
-}
-
 // A value as a JSON number when it is a plain decimal ("220.5", "-5.0", "12345"), else
 // as a string (an enum label, bit names, a special write's meaning); null when unknown.
 void append_json_value(std::string& out, const std::string& value) {
@@ -93,12 +84,30 @@ class JsonlSink final : public RecordSink {
         line += ",\"hex\":\""sv;
         append_hex(line, r.frame.bytes, false);
         line += "\",\"flags\":"sv;
-        // Only notes and values give flags.
-        const RecordFlags flags =
-            r.notes.empty() && r.values.empty() ? RecordFlags{} : record_flags(r);
-        append_json_list(line, flags.ids);
-        line += ",\"notes\":"sv;
-        append_json_list(line, flags.texts);
+        ids_.clear();
+        texts_.clear();
+        seen_ids_.clear();
+        for_each_flag(
+            r, [&](std::string_view id, const std::string* value_name, std::string_view text) {
+                if (first_time(seen_ids_, id)) {
+                    if (!ids_.empty()) ids_ += ',';
+                    append_json_string(ids_, id);
+                }
+                if (!texts_.empty()) texts_ += ',';
+                if (value_name == nullptr) {
+                    append_json_string(texts_, text);
+                } else {
+                    named_text_ = *value_name;
+                    named_text_ += ": "sv;
+                    named_text_ += text;
+                    append_json_string(texts_, named_text_);
+                }
+            });
+        line += '[';
+        line += ids_;
+        line += "],\"notes\":["sv;
+        line += texts_;
+        line += ']';
         line += ",\"channel\":"sv;
         if (r.frame.channel.empty()) {
             line += "null"sv;
@@ -177,7 +186,13 @@ class JsonlSink final : public RecordSink {
 
   private:
     BlockOutput out_;
-    std::string summary_;  // reused
+    // Reused record after record: the summary, the flags' ids and texts as JSON array
+    // items, a value's note with its name, the ids written so far.
+    std::string summary_;
+    std::string ids_;
+    std::string texts_;
+    std::string named_text_;
+    std::vector<std::string_view> seen_ids_;
 };
 
 }  // namespace

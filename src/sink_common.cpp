@@ -57,33 +57,15 @@ std::string record_summary(const Record& record) {
     return text;
 }
 
-RecordFlags record_flags(const Record& record) {
-    RecordFlags flags;
-    auto add = [&](std::string_view id, std::string text) {
-        if (std::find(flags.ids.begin(), flags.ids.end(), id) == flags.ids.end()) {
-            flags.ids.emplace_back(id);
-        }
-        flags.texts.push_back(std::move(text));
-    };
-    for (const Note& note : record.notes) add(note.id, note.text);
-    // The register values' anomalies too, so that filtering by flag finds a value out of
-    // range without the values CSV; unlisted registers are only counted.
-    std::size_t unlisted = 0;
-    for (const DecodedValue& v : record.values) {
-        for (const Note& note : v.notes) {
-            if (std::string_view(note.id) == note_id::value_unlisted) {
-                ++unlisted;
-            } else {
-                add(note.id, v.name + ": " + note.text);
-            }
-        }
-    }
-    if (unlisted > 0) {
-        add(note_id::value_unlisted, std::to_string(unlisted) +
-                                         (unlisted == 1 ? " register" : " registers") +
-                                         " not in the profile");
-    }
-    return flags;
+std::string unlisted_registers_text(std::size_t count) {
+    return std::to_string(count) + (count == 1 ? " register" : " registers") +
+           " not in the profile";
+}
+
+bool first_time(std::vector<std::string_view>& seen, std::string_view id) {
+    if (std::find(seen.begin(), seen.end(), id) != seen.end()) return false;
+    seen.push_back(id);
+    return true;
 }
 
 namespace {

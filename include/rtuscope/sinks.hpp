@@ -4,6 +4,8 @@
 #include <cstdio>
 #include <memory>
 #include <string>
+#include <string_view>
+#include <vector>
 
 #include "rtuscope/pipeline.hpp"
 
@@ -41,13 +43,31 @@ void append_csv_field(std::string& out, std::string_view text);
 // become U+FFFD, as JSON must be UTF-8.
 std::string json_string(std::string_view text);
 void append_json_string(std::string& out, std::string_view text);
-// What the `flags` and `notes` columns hold: the record's note ids (each once) and
-// texts, then its register values' anomalies (`name: text`), unlisted registers counted.
-struct RecordFlags {
-    std::vector<std::string> ids;
-    std::vector<std::string> texts;
-};
-RecordFlags record_flags(const Record& record);
+// "3 registers not in the profile".
+std::string unlisted_registers_text(std::size_t count);
+// Whether `id` is not yet in `seen`, adding it then. `seen` is the caller's, reused.
+bool first_time(std::vector<std::string_view>& seen, std::string_view id);
+// What the `flags` and `notes` columns hold: the record's notes, then its register
+// values' anomalies (their text reads `name: text`), then the registers the profile does
+// not list, counted. Handed to `add(id, value_name, text)` one at a time, `value_name`
+// nullptr but for a value's note, for the sinks to write straight into their lines (a
+// list of strings per record was a large part of decoding with profiles). An id can
+// come more than once; the `flags` column lists each once (see first_time).
+template <typename Add>
+void for_each_flag(const Record& record, Add add) {
+    for (const Note& note : record.notes) add(note.id, nullptr, note.text);
+    std::size_t unlisted = 0;
+    for (const DecodedValue& v : record.values) {
+        for (const Note& note : v.notes) {
+            if (std::string_view(note.id) == note_id::value_unlisted) {
+                ++unlisted;
+            } else {
+                add(note.id, &v.name, note.text);
+            }
+        }
+    }
+    if (unlisted > 0) add(note_id::value_unlisted, nullptr, unlisted_registers_text(unlisted));
+}
 // The one-line description of a record, as in the CSV `summary` column.
 std::string record_summary(const Record& record);
 void append_summary(std::string& out, const Record& record);
