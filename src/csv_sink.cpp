@@ -19,28 +19,13 @@ class CsvSink final : public RecordSink {
         const bool framed = r.kind != Kind::noise;
         summary_.clear();
         append_summary(summary_, r);
-        ids_.clear();
-        texts_.clear();
-        seen_ids_.clear();
-        for_each_flag(
-            r, [&](std::string_view id, const std::string* value_name, std::string_view text) {
-                if (first_time(seen_ids_, id)) {
-                    if (!ids_.empty()) ids_ += ' ';
-                    ids_ += id;
-                }
-                if (!texts_.empty()) texts_ += "; ";
-                if (value_name != nullptr) {
-                    texts_ += *value_name;
-                    texts_ += ": ";
-                }
-                texts_ += text;
-            });
+        flags_.build(r, " ", "; ", [](std::string& out, std::string_view item) { out += item; });
         // Numbers, time, kind, CRC, latency and commas fit in kFixedChars; quoting at most
         // doubles a field and adds two quotes.
         constexpr std::size_t kFixedChars =
             4 * kMaxUintChars + kMaxSecondsChars + kMaxMillisChars + 50;
         const std::size_t bound = kFixedChars + 2 * r.frame.bytes.size() + 2 * summary_.size() +
-                                  2 * ids_.size() + 2 * texts_.size() + 6;
+                                  2 * flags_.ids.size() + 2 * flags_.texts.size() + 6;
         append_with(out_.text(), bound, [&](char* p) {
             p = write_uint(p, r.number);
             *p++ = ',';
@@ -62,9 +47,9 @@ class CsvSink final : public RecordSink {
             *p++ = ',';
             p = write_hex(p, r.frame.bytes, false);
             *p++ = ',';
-            p = write_csv_field(p, ids_);
+            p = write_csv_field(p, flags_.ids);
             *p++ = ',';
-            p = write_csv_field(p, texts_);
+            p = write_csv_field(p, flags_.texts);
             *p++ = '\n';
             return p;
         });
@@ -84,9 +69,7 @@ class CsvSink final : public RecordSink {
     BlockOutput out_;
     // Fields that may need quoting, built before they are written; all reused.
     std::string summary_;
-    std::string ids_;
-    std::string texts_;
-    std::vector<std::string_view> seen_ids_;
+    FlagColumns flags_;
 };
 
 }  // namespace

@@ -84,29 +84,13 @@ class JsonlSink final : public RecordSink {
         line += ",\"hex\":\""sv;
         append_hex(line, r.frame.bytes, false);
         line += "\",\"flags\":"sv;
-        ids_.clear();
-        texts_.clear();
-        seen_ids_.clear();
-        for_each_flag(
-            r, [&](std::string_view id, const std::string* value_name, std::string_view text) {
-                if (first_time(seen_ids_, id)) {
-                    if (!ids_.empty()) ids_ += ',';
-                    append_json_string(ids_, id);
-                }
-                if (!texts_.empty()) texts_ += ',';
-                if (value_name == nullptr) {
-                    append_json_string(texts_, text);
-                } else {
-                    named_text_ = *value_name;
-                    named_text_ += ": "sv;
-                    named_text_ += text;
-                    append_json_string(texts_, named_text_);
-                }
-            });
+        flags_.build(r, ",", ",", [](std::string& out, std::string_view item) {
+            append_json_string(out, item);
+        });
         line += '[';
-        line += ids_;
+        line += flags_.ids;
         line += "],\"notes\":["sv;
-        line += texts_;
+        line += flags_.texts;
         line += ']';
         line += ",\"channel\":"sv;
         if (r.frame.channel.empty()) {
@@ -186,13 +170,8 @@ class JsonlSink final : public RecordSink {
 
   private:
     BlockOutput out_;
-    // Reused record after record: the summary, the flags' ids and texts as JSON array
-    // items, a value's note with its name, the ids written so far.
-    std::string summary_;
-    std::string ids_;
-    std::string texts_;
-    std::string named_text_;
-    std::vector<std::string_view> seen_ids_;
+    std::string summary_;  // reused
+    FlagColumns flags_;
 };
 
 }  // namespace

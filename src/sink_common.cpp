@@ -62,12 +62,6 @@ std::string unlisted_registers_text(std::size_t count) {
            " not in the profile";
 }
 
-bool first_time(std::vector<std::string_view>& seen, std::string_view id) {
-    if (std::find(seen.begin(), seen.end(), id) != seen.end()) return false;
-    seen.push_back(id);
-    return true;
-}
-
 namespace {
 
 // The length of the well-formed UTF-8 sequence `text` starts with (RFC 3629: no overlong

@@ -1,6 +1,7 @@
 // Stage 5, sinks: annotated text for people, the per-frame CSV of DESIGN.md for machines.
 #pragma once
 
+#include <algorithm>
 #include <cstdio>
 #include <memory>
 #include <string>
@@ -45,29 +46,55 @@ std::string json_string(std::string_view text);
 void append_json_string(std::string& out, std::string_view text);
 // "3 registers not in the profile".
 std::string unlisted_registers_text(std::size_t count);
-// Whether `id` is not yet in `seen`, adding it then. `seen` is the caller's, reused.
-bool first_time(std::vector<std::string_view>& seen, std::string_view id);
-// What the `flags` and `notes` columns hold: the record's notes, then its register
-// values' anomalies (their text reads `name: text`), then the registers the profile does
-// not list, counted. Handed to `add(id, value_name, text)` one at a time, `value_name`
-// nullptr but for a value's note, for the sinks to write straight into their lines (a
-// list of strings per record was a large part of decoding with profiles). An id can
-// come more than once; the `flags` column lists each once (see first_time).
-template <typename Add>
-void for_each_flag(const Record& record, Add add) {
-    for (const Note& note : record.notes) add(note.id, nullptr, note.text);
-    std::size_t unlisted = 0;
-    for (const DecodedValue& v : record.values) {
-        for (const Note& note : v.notes) {
-            if (std::string_view(note.id) == note_id::value_unlisted) {
-                ++unlisted;
-            } else {
-                add(note.id, &v.name, note.text);
+
+// The `flags` and `notes` columns of a record: its notes, then its register values'
+// anomalies ("name: text"), then the registers the profile does not list, counted;
+// `ids` lists each id once, `texts` every text. Built in strings reused record after
+// record (a list of strings per record was a large part of decoding with profiles);
+// `write(out, item)` writes one item (as it is for the CSV, as a JSON string for JSONL),
+// after the separator when it is not the first.
+class FlagColumns {
+  public:
+    template <typename Write>
+    void build(const Record& record, std::string_view id_separator, std::string_view text_separator,
+               Write write) {
+        ids.clear();
+        texts.clear();
+        seen_.clear();
+        auto add = [&](std::string_view id, std::string_view text) {
+            if (std::find(seen_.begin(), seen_.end(), id) == seen_.end()) {
+                seen_.push_back(id);
+                if (!ids.empty()) ids += id_separator;
+                write(ids, id);
+            }
+            if (!texts.empty()) texts += text_separator;
+            write(texts, text);
+        };
+        for (const Note& note : record.notes) add(note.id, note.text);
+        std::size_t unlisted = 0;
+        for (const DecodedValue& v : record.values) {
+            for (const Note& note : v.notes) {
+                if (std::string_view(note.id) == note_id::value_unlisted) {
+                    ++unlisted;
+                    continue;
+                }
+                named_ = v.name;
+                named_ += ": ";
+                named_ += note.text;
+                add(note.id, named_);
             }
         }
+        if (unlisted > 0) add(note_id::value_unlisted, unlisted_registers_text(unlisted));
     }
-    if (unlisted > 0) add(note_id::value_unlisted, nullptr, unlisted_registers_text(unlisted));
-}
+
+    std::string ids;
+    std::string texts;
+
+  private:
+    std::vector<std::string_view> seen_;  // the ids so far
+    std::string named_;                   // a value's note with its name
+};
+
 // The one-line description of a record, as in the CSV `summary` column.
 std::string record_summary(const Record& record);
 void append_summary(std::string& out, const Record& record);
