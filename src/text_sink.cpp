@@ -163,40 +163,57 @@ class TextSink final : public RecordSink {
     // One line per value under its frame; registers the profile does not list are
     // gathered into runs, as devices often fill unused ranges with zeros.
     void append_values(std::string& out, const std::vector<DecodedValue>& values) const {
-        constexpr const char* kIndent = "                            ";
+        constexpr std::string_view kIndent = "                            ";
         for (std::size_t i = 0; i < values.size();) {
             const DecodedValue& v = values[i];
             if (v.name.empty()) {
                 std::size_t end = i;
                 bool all_zero = true;
-                std::string raws;
                 while (end < values.size() && values[end].name.empty()) {
                     all_zero = all_zero && values[end].value == "0";
-                    raws += (raws.empty() ? "" : " ") + values[end].raw;
                     ++end;
                 }
                 const std::size_t n = end - i;
-                std::string where = fmt::format("0x{:04X}", v.address);
-                if (n > 1) where += fmt::format("..0x{:04X}", values[end - 1].address);
-                out +=
-                    fmt::format("{}{} not in the profile: {}\n", kIndent, where,
-                                all_zero && n > 1 ? fmt::format("{} registers, all 0", n) : raws);
+                out += kIndent;
+                append_hex4(out, v.address);
+                if (n > 1) {
+                    out += ".."sv;
+                    append_hex4(out, values[end - 1].address);
+                }
+                out += " not in the profile: "sv;
+                if (all_zero && n > 1) {
+                    append_uint(out, n);
+                    out += " registers, all 0"sv;
+                } else {
+                    for (std::size_t k = i; k < end; ++k) {
+                        if (k > i) out += ' ';
+                        out += values[k].raw;
+                    }
+                }
+                out += '\n';
                 i = end;
                 continue;
             }
-            std::string text =
-                fmt::format("{}{:<16} = {}", kIndent, v.name, v.value.empty() ? "?" : v.value);
-            if (!v.unit.empty() && !v.value.empty()) text += " " + v.unit;
-            text += fmt::format(" (raw {})", v.raw);
+            out += kIndent;
+            append_padded(out, v.name, 16, false);
+            out += " = "sv;
+            out += v.value.empty() ? "?"sv : std::string_view(v.value);
+            if (!v.unit.empty() && !v.value.empty()) {
+                out += ' ';
+                out += v.unit;
+            }
+            out += " (raw "sv;
+            out += v.raw;
+            out += ')';
             if (!v.notes.empty()) {
                 std::string notes = "! ";
                 for (std::size_t k = 0; k < v.notes.size(); ++k) {
                     notes += (k > 0 ? "; " : "") + v.notes[k].text;
                 }
-                text += "  "sv;
-                append_painted(text, notes, fmt::terminal_color::yellow);
+                out += "  "sv;
+                append_painted(out, notes, fmt::terminal_color::yellow);
             }
-            out += text + '\n';
+            out += '\n';
             ++i;
         }
     }
