@@ -59,7 +59,8 @@ std::string decimal(std::int64_t value) {
     return {text.data(), text.size()};
 }
 
-// 10^-decimals as the profile loader computes it for `decimals = N`.
+// 10^-decimals as the profile loader computes it for `decimals = N` (N is 0-9); 0, which
+// no scale is, for any other N.
 double inverse_power_of_ten(int decimals) {
     static const std::array<double, 10> kPowers = [] {
         std::array<double, 10> powers{};

@@ -48,7 +48,8 @@ void append_json_string(std::string& out, std::string_view text);
 std::string unlisted_registers_text(std::size_t count);
 
 // The `flags` and `notes` columns of a record: its notes, then its register values'
-// anomalies ("name: text"), then the registers the profile does not list, counted;
+// anomalies ("name: text"; so that filtering by flag finds a value out of range without
+// the values CSV), then the registers the profile does not list, only counted;
 // `ids` lists each id once, `texts` every text. Built in strings reused record after
 // record (a list of strings per record was a large part of decoding with profiles);
 // `write(out, item)` writes one item (as it is for the CSV, as a JSON string for JSONL),
