@@ -2,8 +2,24 @@
 #include "rtuscope/profile.hpp"
 
 #include <algorithm>
+#include <array>
+#include <cmath>
 
 namespace rtuscope {
+
+double scale_for_decimals(int decimals) {
+    // Decoding compares a register's scale with this for every value it prints.
+    static const std::array<double, 10> kScales = [] {
+        std::array<double, 10> scales{};
+        for (std::size_t d = 0; d < scales.size(); ++d) {
+            scales[d] = std::pow(10.0, -static_cast<double>(d));
+        }
+        return scales;
+    }();
+    return decimals >= 0 && static_cast<std::size_t>(decimals) < kScales.size()
+               ? kScales[static_cast<std::size_t>(decimals)]
+               : 0.0;
+}
 
 const FunctionOverride* Profile::function(std::uint8_t code) const {
     for (const FunctionOverride& f : functions) {
@@ -17,7 +33,8 @@ std::span<const Register> Profile::registers_in(std::string_view table) const {
         bool operator()(const Register& r, std::string_view t) const { return r.table < t; }
         bool operator()(std::string_view t, const Register& r) const { return t < r.table; }
     };
-    const auto [first, last] = std::equal_range(registers.begin(), registers.end(), table, ByTable{});
+    const auto [first, last] =
+        std::equal_range(registers.begin(), registers.end(), table, ByTable{});
     return {first, last};
 }
 

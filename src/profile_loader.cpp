@@ -6,7 +6,6 @@
 #include <algorithm>
 #include <cctype>
 #include <charconv>
-#include <cmath>
 #include <cstdint>
 #include <filesystem>
 #include <fstream>
@@ -449,7 +448,7 @@ class Loader {
             }
         } else if (auto d = get_integer(t, "decimals", 0, 9)) {
             r.decimals = static_cast<int>(*d);
-            r.scale = std::pow(10.0, -static_cast<double>(*d));
+            r.scale = scale_for_decimals(r.decimals);
         }
         r.unit = get_string(t, "unit").value_or("");
         r.description = get_string(t, "description").value_or("");

@@ -9,7 +9,6 @@
 #include <fmt/format.h>
 
 #include <algorithm>
-#include <array>
 #include <bit>
 #include <cmath>
 #include <cstddef>
@@ -57,21 +56,6 @@ std::string hex_words(Words words) {
 std::string decimal(std::int64_t value) {
     const fmt::format_int text(value);
     return {text.data(), text.size()};
-}
-
-// 10^-decimals as the profile loader computes it for `decimals = N` (N is 0-9); 0, which
-// no scale is, for any other N.
-double inverse_power_of_ten(int decimals) {
-    static const std::array<double, 10> kPowers = [] {
-        std::array<double, 10> powers{};
-        for (std::size_t d = 0; d < powers.size(); ++d) {
-            powers[d] = std::pow(10.0, -static_cast<double>(d));
-        }
-        return powers;
-    }();
-    return decimals >= 0 && static_cast<std::size_t>(decimals) < kPowers.size()
-               ? kPowers[static_cast<std::size_t>(decimals)]
-               : 0.0;
 }
 
 // raw / 10^decimals written exactly: the digits of raw with a decimal point put in
@@ -203,7 +187,7 @@ void set_number(const Register& reg, RawNumber raw, bool bit_table, DecodedValue
     if (style.kind == NumberStyle::Kind::integer && !raw.is_real) {
         v.value = decimal(raw.integer);
     } else if (style.kind == NumberStyle::Kind::fixed && !raw.is_real &&
-               reg.scale == inverse_power_of_ten(style.decimals) &&
+               reg.scale == scale_for_decimals(style.decimals) &&
                std::abs(raw.integer) < (std::int64_t{1} << 51)) {
         // `decimals = N` (or a scale of exactly 10^-N) on an integer register, the usual case.
         v.value = shifted_decimal(raw.integer, style.decimals);

@@ -30,6 +30,10 @@ struct SourcePos {
     int column = 0;
 };
 
+// The scale `decimals = N` gives a register: 10^-N for N in 0-9 (what a profile may
+// give), computed once; 0, which no scale is, for any other N.
+double scale_for_decimals(int decimals);
+
 struct Register {
     std::string table = "holding";  // "holding", "input", "coil", "discrete" or a custom
                                     // table of a non-standard function code
