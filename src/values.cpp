@@ -26,7 +26,7 @@ using Words = std::span<const std::uint16_t>;
 // Anything a profile could ask for beyond this is a typo, not a wish for 10^9 digits.
 constexpr int kMaxDecimals = 30;
 
-bool is_bit_table(const std::string& table) {
+bool is_bit_table(std::string_view table) {
     return table == "coil" || table == "discrete";
 }
 
@@ -395,8 +395,9 @@ std::vector<DecodedValue> decode_values(const Profile& profile, const DataBlock&
 }
 
 void decode_values(const Profile& profile, const DataBlock& block, std::vector<DecodedValue>& out) {
-    const std::string table =
-        block.custom_table.empty() ? std::string(table_name(block.table)) : block.custom_table;
+    const std::string_view table = block.custom_table.empty()
+                                       ? std::string_view(table_name(block.table))
+                                       : std::string_view(block.custom_table);
     const bool bit_table = is_bit_table(table);
     // Addresses do not wrap around: what a block carries past 0xFFFF is not decoded.
     const std::size_t count =
