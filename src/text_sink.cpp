@@ -116,15 +116,7 @@ class TextSink final : public RecordSink {
             line += "  answers #"sv;
             append_uint(line, r.request_number);
         }
-        if (!r.notes.empty()) {
-            std::string notes = "! ";
-            for (std::size_t i = 0; i < r.notes.size(); ++i) {
-                if (i > 0) notes += "; "sv;
-                notes += r.notes[i].text;
-            }
-            line += "  "sv;
-            append_painted(line, notes, fmt::terminal_color::yellow);
-        }
+        append_notes(line, r.notes);
         // Trailing spaces come from padding a short last column.
         while (line.size() > line_start && line.back() == ' ') line.pop_back();
         line += '\n';
@@ -205,14 +197,7 @@ class TextSink final : public RecordSink {
             out += " (raw "sv;
             out += v.raw;
             out += ')';
-            if (!v.notes.empty()) {
-                std::string notes = "! ";
-                for (std::size_t k = 0; k < v.notes.size(); ++k) {
-                    notes += (k > 0 ? "; " : "") + v.notes[k].text;
-                }
-                out += "  "sv;
-                append_painted(out, notes, fmt::terminal_color::yellow);
-            }
+            append_notes(out, v.notes);
             out += '\n';
             ++i;
         }
@@ -253,6 +238,18 @@ class TextSink final : public RecordSink {
             default:
                 return fmt::terminal_color::white;
         }
+    }
+
+    // A frame's or a value's notes at the end of its line: "  ! first; second".
+    void append_notes(std::string& out, const Notes& notes) const {
+        if (notes.empty()) return;
+        std::string text = "! ";
+        for (std::size_t i = 0; i < notes.size(); ++i) {
+            if (i > 0) text += "; "sv;
+            text += notes[i].text;
+        }
+        out += "  "sv;
+        append_painted(out, text, fmt::terminal_color::yellow);
     }
 
     void append_painted(std::string& out, std::string_view text, fmt::terminal_color colour) const {
