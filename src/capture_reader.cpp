@@ -272,6 +272,18 @@ class CaptureReader final : public ChunkSource {
         std::uint8_t* next = first;
         const char* p = line.data() + i;
         const char* const end = line.data() + line.size();
+        // The usual "XX XX ... XX" with no bounds check but the loop's: the loop below
+        // checks every byte's bounds and separators, and cost more than the digits. It
+        // takes over at the first byte this one does not take (another separator, a bad
+        // digit, the last byte), after the spaces it would have skipped.
+        while (end - p >= 3) {
+            const int hi = hex_value(p[0]);
+            const int lo = hex_value(p[1]);
+            if ((hi | lo) < 0 || p[2] != ' ') break;
+            *next++ = static_cast<std::uint8_t>(hi << 4 | lo);
+            p += 3;
+        }
+        while (p < end && is_space(*p)) ++p;
         while (p < end) {
             const int hi = hex_value(p[0]);
             const int lo = p + 1 < end ? hex_value(p[1]) : -1;

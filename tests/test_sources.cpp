@@ -209,6 +209,13 @@ TEST(CaptureReader, MixedCaseHexAndLooseWhitespace) {
     ASSERT_EQ(d.chunks.size(), 1U);
     EXPECT_EQ(d.chunks[0].time, 3250000000);
     EXPECT_EQ(d.chunks[0].bytes, (Bytes{0x0A, 0xBC, 0xFF, 0x9D}));
+
+    // Wider separators after a run of single spaces, and a bad byte after such a run.
+    d = read_all(capture("4.5 01 02 03  04 05\t\t06 07 \n"), InputFormat::capture);
+    ASSERT_FALSE(d.error) << d.error->to_string();
+    ASSERT_EQ(d.chunks.size(), 1U);
+    EXPECT_EQ(d.chunks[0].bytes, (Bytes{0x01, 0x02, 0x03, 0x04, 0x05, 0x06, 0x07}));
+    EXPECT_EQ(error_text(capture("4.5 01 02 03  0x 05\n")), "cap.rtucap:2:15: bad hex byte \"0x\"");
 }
 
 TEST(CaptureReader, ToleratesCrlfAndBomAndNoFinalNewline) {
