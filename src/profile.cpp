@@ -21,6 +21,10 @@ double scale_for_decimals(int decimals) {
                : 0.0;
 }
 
+bool is_bit_table(std::string_view table) {
+    return table == "coil" || table == "discrete";
+}
+
 const FunctionOverride* Profile::function(std::uint8_t code) const {
     for (const FunctionOverride& f : functions) {
         if (f.code == code) return &f;

@@ -426,7 +426,7 @@ class Loader {
         } else if (r.type == ValueType::string && t.get("length") == nullptr) {
             problem(t, fmt::format("string register \"{}\" needs a length", r.name));
         }
-        if (r.table == "coil" || r.table == "discrete") {
+        if (is_bit_table(r.table)) {
             if (r.type != ValueType::u16 && r.type != ValueType::enumeration) {
                 problem(*t.get("type"),
                         "coils and discrete inputs are single bits: type u16 "

@@ -26,10 +26,6 @@ using Words = std::span<const std::uint16_t>;
 // Anything a profile could ask for beyond this is a typo, not a wish for 10^9 digits.
 constexpr int kMaxDecimals = 30;
 
-bool is_bit_table(std::string_view table) {
-    return table == "coil" || table == "discrete";
-}
-
 bool is_32bit(ValueType type) {
     return type == ValueType::u32 || type == ValueType::i32 || type == ValueType::f32;
 }

@@ -34,6 +34,9 @@ struct SourcePos {
 // give), computed once; 0, which no scale is, for any other N.
 double scale_for_decimals(int decimals);
 
+// Whether a profile table holds single bits ("coil", "discrete") rather than registers.
+bool is_bit_table(std::string_view table);
+
 struct Register {
     std::string table = "holding";  // "holding", "input", "coil", "discrete" or a custom
                                     // table of a non-standard function code
