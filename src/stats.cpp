@@ -5,6 +5,9 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cassert>
+#include <iterator>
+#include <limits>
 #include <string_view>
 
 #include "rtuscope/decoder.hpp"
@@ -27,8 +30,7 @@ void merge_counts(FunctionStats& into, const FunctionStats& from) {
     into.no_answer += from.no_answer;
     into.broadcasts += from.broadcasts;
     into.unsolicited += from.unsolicited;
-    into.turnarounds.insert(into.turnarounds.end(), from.turnarounds.begin(),
-                            from.turnarounds.end());
+    into.turnarounds.merge(from.turnarounds);
 }
 
 // One row of figures, whatever the output format; nullopt where not known.
@@ -37,18 +39,20 @@ struct RowFigures {
     const FunctionStats* counts = nullptr;
     std::optional<Nanos> p50, p95, p99, max;
     std::optional<Nanos> cycle_median, cycle_max;
+    const DurationCounts* cycles = nullptr;  // of the row's poll, if it has one
 };
 
 RowFigures figures(std::optional<BusStats::Key> key, const FunctionStats& s,
                    const PollStats* poll) {
-    RowFigures f{key, &s, {}, {}, {}, {}, {}, {}};
-    f.p50 = nearest_rank(s.turnarounds, 50);
-    f.p95 = nearest_rank(s.turnarounds, 95);
-    f.p99 = nearest_rank(s.turnarounds, 99);
-    f.max = nearest_rank(s.turnarounds, 100);
+    RowFigures f{key, &s, {}, {}, {}, {}, {}, {}, nullptr};
+    f.p50 = s.turnarounds.percentile(50);
+    f.p95 = s.turnarounds.percentile(95);
+    f.p99 = s.turnarounds.percentile(99);
+    f.max = s.turnarounds.percentile(100);
     if (poll != nullptr) {
-        f.cycle_median = nearest_rank(poll->cycles, 50);
-        f.cycle_max = nearest_rank(poll->cycles, 100);
+        f.cycle_median = poll->cycles.percentile(50);
+        f.cycle_max = poll->cycles.percentile(100);
+        f.cycles = &poll->cycles;
     }
     return f;
 }
@@ -68,6 +72,30 @@ std::vector<RowFigures> all_rows(const BusStats& stats) {
 std::string ms(std::optional<Nanos> t, int decimals, std::string_view unknown) {
     if (!t) return std::string(unknown);
     return fmt::format("{:.{}f}", static_cast<double>(*t) / 1e6, decimals);
+}
+
+// A percentile in the text output: "~" marks one counted in bins, up to a bin below the
+// exact figure (DurationCounts).
+std::string ms_text(std::optional<Nanos> t, Nanos bin) {
+    std::string out = ms(t, 2, "-");
+    return t && bin != 0 ? "~" + out : out;
+}
+
+// The CSV's and JSONL's bin width of percentiles (DurationCounts): 0 when exact,
+// `unknown` when there are no values.
+std::string bin_ms(const DurationCounts* values, std::string_view unknown) {
+    if (values == nullptr || values->empty()) return std::string(unknown);
+    return ms(values->bin_width(), 3, unknown);
+}
+
+// The widest bin behind any percentile the text output shows (0: all exact).
+Nanos widest_bin(const BusStats& stats) {
+    Nanos widest = stats.all().turnarounds.bin_width();
+    for (const auto& [key, s] : stats.functions()) {
+        widest = std::max(widest, s.turnarounds.bin_width());
+    }
+    for (const auto& [key, p] : stats.polls()) widest = std::max(widest, p.cycles.bin_width());
+    return widest;
 }
 
 // "0x0000 x2" for the reads, whose first 4 data bytes are address and quantity; the
@@ -122,8 +150,8 @@ std::string render_text(const BusStats& stats, const std::vector<std::string>& r
             out += fmt::format(
                 "poll cycle: {} ms median, {} ms max (slave {} function {:02X} {}, "
                 "{} requests)\n",
-                ms(nearest_rank(poll->second.cycles, 50), 2, "-"),
-                ms(nearest_rank(poll->second.cycles, 100), 2, "-"), poll->first.slave,
+                ms_text(poll->second.cycles.percentile(50), poll->second.cycles.bin_width()),
+                ms(poll->second.cycles.percentile(100), 2, "-"), poll->first.slave,
                 poll->first.function, poll_data_text(poll->first), poll->second.requests);
         } else {
             out += "poll cycle: no request repeated\n";
@@ -132,6 +160,19 @@ std::string render_text(const BusStats& stats, const std::vector<std::string>& r
         out += "no timing: turnaround, utilisation and cycle unknown\n";
     }
     for (const std::string& remark : remarks) out += fmt::format("note: {}\n", remark);
+    if (const Nanos widest = widest_bin(stats); widest != 0) {
+        out += fmt::format(
+            "note: ~ marks a percentile counted in bins (more than {} distinct turnarounds in "
+            "a row or cycles of a poll): up to one bin ({} ms at most) below the exact "
+            "figure\n",
+            DurationCounts::kMaxDistinct, ms(widest, 3, ""));
+    }
+    if (stats.forgotten_polls() != 0) {
+        out += fmt::format(
+            "note: {} rare polls forgotten to keep to {} distinct requests (their requests "
+            "still count in the rows)\n",
+            stats.forgotten_polls(), BusStats::kMaxPolls);
+    }
 
     // Short headers keep the table within a terminal's width for typical buses; the
     // legend says what they mean.
@@ -149,9 +190,12 @@ std::string render_text(const BusStats& stats, const std::vector<std::string>& r
                         fmt::format("{}", c.answers), fmt::format("{}", c.exceptions),
                         fmt::format("{}", c.crc_errors), fmt::format("{}", c.no_answer),
                         fmt::format("{}", c.broadcasts), fmt::format("{}", c.unsolicited),
-                        fmt::format("{}", c.turnarounds.size()), ms(f.p50, 2, "-"),
-                        ms(f.p95, 2, "-"), ms(f.p99, 2, "-"), ms(f.max, 2, "-"),
-                        ms(f.cycle_median, 2, "-"), ms(f.cycle_max, 2, "-")});
+                        fmt::format("{}", c.turnarounds.size()),
+                        ms_text(f.p50, c.turnarounds.bin_width()),
+                        ms_text(f.p95, c.turnarounds.bin_width()),
+                        ms_text(f.p99, c.turnarounds.bin_width()), ms(f.max, 2, "-"),
+                        ms_text(f.cycle_median, f.cycles != nullptr ? f.cycles->bin_width() : 0),
+                        ms(f.cycle_max, 2, "-")});
     }
     out += table(rows, {true, true, false, true, true, true, true, true, true, true, true, true,
                         true, true, true, true, true});
@@ -179,8 +223,8 @@ std::string render_text(const BusStats& stats, const std::vector<std::string>& r
             if (p.cycles.empty()) continue;
             polls.push_back({fmt::format("{}", key.slave), fmt::format("{:02X}", key.function),
                              poll_data_text(key), fmt::format("{}", p.requests),
-                             ms(nearest_rank(p.cycles, 50), 2, "-"),
-                             ms(nearest_rank(p.cycles, 100), 2, "-")});
+                             ms_text(p.cycles.percentile(50), p.cycles.bin_width()),
+                             ms(p.cycles.percentile(100), 2, "-")});
         }
         if (polls.size() > 1) {
             out += "\npolls (times in ms):\n";
@@ -194,16 +238,17 @@ std::string render_csv(const BusStats& stats) {
     std::string out =
         "slave,function,requests,answers,exceptions,crc_errors,no_answer,broadcasts,"
         "unsolicited,turnarounds,turnaround_p50_ms,turnaround_p95_ms,turnaround_p99_ms,"
-        "turnaround_max_ms,cycle_median_ms,cycle_max_ms\n";
+        "turnaround_max_ms,cycle_median_ms,cycle_max_ms,turnaround_bin_ms,cycle_bin_ms\n";
     for (const RowFigures& f : all_rows(stats)) {
         const FunctionStats& c = *f.counts;
         const std::string slave = f.key ? fmt::format("{}", f.key->first) : "all";
         const std::string function = f.key ? fmt::format("{}", f.key->second) : "all";
-        out += fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n", slave, function,
-                           c.requests, c.answers, c.exceptions, c.crc_errors, c.no_answer,
-                           c.broadcasts, c.unsolicited, c.turnarounds.size(), ms(f.p50, 3, ""),
-                           ms(f.p95, 3, ""), ms(f.p99, 3, ""), ms(f.max, 3, ""),
-                           ms(f.cycle_median, 3, ""), ms(f.cycle_max, 3, ""));
+        out += fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n", slave,
+                           function, c.requests, c.answers, c.exceptions, c.crc_errors,
+                           c.no_answer, c.broadcasts, c.unsolicited, c.turnarounds.size(),
+                           ms(f.p50, 3, ""), ms(f.p95, 3, ""), ms(f.p99, 3, ""), ms(f.max, 3, ""),
+                           ms(f.cycle_median, 3, ""), ms(f.cycle_max, 3, ""),
+                           bin_ms(&c.turnarounds, ""), bin_ms(f.cycles, ""));
     }
     return out;
 }
@@ -222,11 +267,11 @@ std::string json_row(const RowFigures& f) {
         "\"crc_errors\":{},\"no_answer\":{},\"broadcasts\":{},\"unsolicited\":{},"
         "\"turnarounds\":{},\"turnaround_p50_ms\":{},\"turnaround_p95_ms\":{},"
         "\"turnaround_p99_ms\":{},\"turnaround_max_ms\":{},\"cycle_median_ms\":{},"
-        "\"cycle_max_ms\":{}",
+        "\"cycle_max_ms\":{},\"turnaround_bin_ms\":{},\"cycle_bin_ms\":{}",
         c.requests, c.answers, c.exceptions, codes, c.crc_errors, c.no_answer, c.broadcasts,
         c.unsolicited, c.turnarounds.size(), ms(f.p50, 3, "null"), ms(f.p95, 3, "null"),
         ms(f.p99, 3, "null"), ms(f.max, 3, "null"), ms(f.cycle_median, 3, "null"),
-        ms(f.cycle_max, 3, "null"));
+        ms(f.cycle_max, 3, "null"), bin_ms(&c.turnarounds, "null"), bin_ms(f.cycles, "null"));
     return out;
 }
 
@@ -238,18 +283,18 @@ std::string render_jsonl(const BusStats& stats) {
     if (const auto* p = stats.main_poll(std::nullopt); p != nullptr) {
         poll = fmt::format(
             "{{\"slave\":{},\"function\":{},\"data\":{},\"requests\":{},\"cycle_median_ms\":{},"
-            "\"cycle_max_ms\":{}}}",
+            "\"cycle_max_ms\":{},\"cycle_bin_ms\":{}}}",
             p->first.slave, p->first.function,
             json_string(hex_bytes(std::span(p->first.data.data(), p->first.size), false)),
-            p->second.requests, ms(nearest_rank(p->second.cycles, 50), 3, "null"),
-            ms(nearest_rank(p->second.cycles, 100), 3, "null"));
+            p->second.requests, ms(p->second.cycles.percentile(50), 3, "null"),
+            ms(p->second.cycles.percentile(100), 3, "null"), bin_ms(&p->second.cycles, "null"));
     }
     const std::optional<double> utilisation = stats.utilisation();
     std::string out = fmt::format(
         "{{\"bus\":{{\"source\":{},\"input_format\":{},\"line\":{},\"devices\":{},"
         "\"timed\":{},\"duration_s\":{},\"frames\":{},\"bytes\":{},\"noise_runs\":{},"
         "\"noise_bytes\":{},\"invalid\":{},\"unknown\":{},\"char_time_ms\":{:.6f},"
-        "\"utilisation_pct\":{},\"poll\":{},\"all\":{{{}}}}}}}\n",
+        "\"utilisation_pct\":{},\"poll\":{},\"forgotten_polls\":{},\"all\":{{{}}}}}}}\n",
         json_string(session.source.name), json_string(session.source.format),
         json_string(fmt::format("{} {}", session.line.baud, session.line.format())),
         json_string(session.devices), stats.timed() ? "true" : "false",
@@ -257,7 +302,8 @@ std::string render_jsonl(const BusStats& stats) {
                          : "null",
         bus.frames, bus.bytes, bus.noise_runs, bus.noise_bytes, bus.invalid, bus.unknown,
         static_cast<double>(session.line.char_time()) / 1e6,
-        utilisation ? fmt::format("{:.3f}", *utilisation) : "null", poll, json_row(rows.back()));
+        utilisation ? fmt::format("{:.3f}", *utilisation) : "null", poll,
+        stats.forgotten_polls(), json_row(rows.back()));
     for (std::size_t i = 0; i + 1 < rows.size(); ++i) {
         out += fmt::format("{{{}}}\n", json_row(rows[i]));
     }
@@ -285,12 +331,97 @@ class StatsSink final : public RecordSink {
 
 }  // namespace
 
-std::optional<Nanos> nearest_rank(std::span<const Nanos> sorted, unsigned percent) {
-    if (sorted.empty()) return std::nullopt;
+void DurationCounts::add(Nanos value) {
+    max_ = size_ == 0 ? value : std::max(max_, value);
+    ++size_;
+    added_.push_back(value);
+    // Counted in batches (sort, then join), so that an add costs a few comparisons.
+    if (added_.size() * 4 >= max_distinct_) finish();
+}
+
+void DurationCounts::finish() {
+    if (added_.empty()) return;
+    const std::vector<Bin> bins = bins_of(std::move(added_));
+    added_.clear();
+    absorb(bins);
+}
+
+void DurationCounts::merge(const DurationCounts& other) {
+    finish();
+    if (other.empty()) return;
+    max_ = empty() ? other.max_ : std::max(max_, other.max_);
+    size_ += other.size_;
+    widen_to(other.width_);
+    absorb(other.counts_);
+    if (!other.added_.empty()) absorb(bins_of(other.added_));
+}
+
+std::optional<Nanos> DurationCounts::percentile(unsigned percent) const {
+    assert(added_.empty() && "DurationCounts::finish() first");
+    if (empty()) return std::nullopt;
+    if (percent >= 100) return max_;
     // Integer ceil(percent * n / 100): no floating-point rounding at exact ranks.
-    std::size_t rank = (static_cast<std::size_t>(percent) * sorted.size() + 99) / 100;
-    rank = std::clamp<std::size_t>(rank, 1, sorted.size());
-    return sorted[rank - 1];
+    const std::uint64_t rank = std::max<std::uint64_t>((percent * size_ + 99) / 100, 1);
+    std::uint64_t reached = 0;
+    for (const Bin& bin : counts_) {
+        reached += bin.count;
+        if (reached >= rank) return bin.smallest;
+    }
+    return max_;
+}
+
+std::vector<DurationCounts::Bin> DurationCounts::bins_of(std::vector<Nanos> values) {
+    std::sort(values.begin(), values.end());
+    std::vector<Bin> bins;
+    for (Nanos v : values) {
+        if (!bins.empty() && bins.back().smallest == v) {
+            ++bins.back().count;
+        } else {
+            bins.push_back({v, 1});
+        }
+    }
+    return bins;
+}
+
+Nanos DurationCounts::bin_of(Nanos value) const {
+    // Rounded down, not towards zero: a bin of negative durations (times that step back
+    // in a capture) is as wide as any other.
+    const Nanos quotient = value / width_;
+    return value % width_ < 0 ? quotient - 1 : quotient;
+}
+
+void DurationCounts::absorb(const std::vector<Bin>& sorted_bins) {
+    std::vector<Bin> merged;
+    merged.reserve(counts_.size() + sorted_bins.size());
+    std::merge(counts_.begin(), counts_.end(), sorted_bins.begin(), sorted_bins.end(),
+               std::back_inserter(merged),
+               [](const Bin& a, const Bin& b) { return a.smallest < b.smallest; });
+    counts_ = std::move(merged);
+    join_bins();
+    // The widths are 1 ns, then 1 µs doubled as often as it takes: each bin lies within
+    // one of every wider width, so values counted at different widths still join exactly.
+    constexpr Nanos kFirstWidth = 1000;
+    while (counts_.size() > max_distinct_ && width_ <= std::numeric_limits<Nanos>::max() / 2) {
+        widen_to(width_ == 1 ? kFirstWidth : width_ * 2);
+    }
+}
+
+void DurationCounts::widen_to(Nanos width) {
+    if (width <= width_) return;
+    width_ = width;
+    join_bins();
+}
+
+void DurationCounts::join_bins() {
+    std::size_t kept = 0;
+    for (const Bin& bin : counts_) {
+        if (kept > 0 && bin_of(counts_[kept - 1].smallest) == bin_of(bin.smallest)) {
+            counts_[kept - 1].count += bin.count;
+        } else {
+            counts_[kept++] = bin;
+        }
+    }
+    counts_.resize(kept);
 }
 
 void BusStats::add(const Record& record) {
@@ -330,10 +461,10 @@ void BusStats::add(const Record& record) {
             const std::size_t data = f.bytes.size() >= 4 ? f.bytes.size() - 4 : 0;
             poll.size = static_cast<std::uint8_t>(std::min<std::size_t>(data, 4));
             std::copy_n(f.bytes.begin() + 2, poll.size, poll.data.begin());
-            PollStats& p = polls_[poll];
+            PollStats& p = poll_of(poll);
             ++p.requests;
             if (has_time(f.start)) {
-                if (has_time(p.last_start)) p.cycles.push_back(f.start - p.last_start);
+                if (has_time(p.last_start)) p.cycles.add(f.start - p.last_start);
                 p.last_start = f.start;
             }
             break;
@@ -347,7 +478,7 @@ void BusStats::add(const Record& record) {
                 if (f.bytes.size() >= 3) ++s.exception_codes[f.bytes[2]];
             }
             if (has_note(record, note_id::unsolicited)) ++s.unsolicited;
-            if (has_time(record.latency)) s.turnarounds.push_back(record.latency);
+            if (has_time(record.latency)) s.turnarounds.add(record.latency);
             break;
         case Kind::broadcast:
             ++s.broadcasts;
@@ -360,11 +491,40 @@ void BusStats::add(const Record& record) {
 void BusStats::finish() {
     all_ = {};
     for (auto& [key, s] : functions_) {
-        std::sort(s.turnarounds.begin(), s.turnarounds.end());
+        s.turnarounds.finish();
         merge_counts(all_, s);
     }
-    std::sort(all_.turnarounds.begin(), all_.turnarounds.end());
-    for (auto& [key, p] : polls_) std::sort(p.cycles.begin(), p.cycles.end());
+    for (auto& [key, p] : polls_) p.cycles.finish();
+}
+
+PollStats& BusStats::poll_of(const PollKey& key) {
+    ++requests_;
+    if (auto it = polls_.find(key); it != polls_.end()) return it->second;
+    if (polls_.size() >= kMaxPolls) forget_rare_polls();
+    PollStats& poll = polls_[key];
+    poll.first_request = requests_;
+    return poll;
+}
+
+void BusStats::forget_rare_polls() {
+    // A quarter at a time, so that the sweep is paid once per kMaxPolls / 4 new requests.
+    using Entry = std::map<PollKey, PollStats>::iterator;
+    auto rate = [this](Entry e) {
+        const std::uint64_t age = requests_ - e->second.first_request + 1;
+        return static_cast<double>(e->second.requests) / static_cast<double>(age);
+    };
+    std::vector<std::pair<double, Entry>> by_rate;
+    by_rate.reserve(polls_.size());
+    for (auto it = polls_.begin(); it != polls_.end(); ++it) by_rate.emplace_back(rate(it), it);
+    const std::size_t forget = polls_.size() / 4;
+    // Equal rates go by key, so that the same input always keeps the same polls.
+    std::nth_element(by_rate.begin(), by_rate.begin() + static_cast<std::ptrdiff_t>(forget),
+                     by_rate.end(), [](const auto& a, const auto& b) {
+                         return a.first != b.first ? a.first < b.first
+                                                   : a.second->first < b.second->first;
+                     });
+    for (std::size_t i = 0; i < forget; ++i) polls_.erase(by_rate[i].second);
+    forgotten_polls_ += forget;
 }
 
 bool BusStats::timed() const {

@@ -1,8 +1,10 @@
 // Bus statistics: counts per slave/function, nearest-rank percentiles, poll cycles,
 // utilisation on a timed capture, untimed input, and the CSV and JSONL outputs.
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <random>
 #include <string>
@@ -207,32 +209,129 @@ const Bytes kAnswer = with_crc({0x01, 0x03, 0x04, 0x00, 0x01, 0x00, 0x02});
 
 // ---------------------------------------------------------------------------------------
 
+// The percentile of `values` as DurationCounts gives it, the values added in the order
+// given.
+std::optional<Nanos> percentile_of(const std::vector<Nanos>& values, unsigned percent,
+                                   std::size_t max_distinct = 1024) {
+    DurationCounts counts(max_distinct);
+    for (Nanos v : values) counts.add(v);
+    counts.finish();
+    return counts.percentile(percent);
+}
+
+// The test's own nearest rank of sorted values, straight from the definition:
+// sorted[ceil(p/100 * n) - 1].
+Nanos exact_rank(const std::vector<Nanos>& sorted, unsigned percent) {
+    const auto n = static_cast<double>(sorted.size());
+    const auto rank = static_cast<std::size_t>(std::ceil(percent / 100.0 * n - 1e-9));
+    return sorted[std::max<std::size_t>(rank, 1) - 1];
+}
+
 TEST(StatsPercentile, NearestRankOf1To100) {
     std::vector<Nanos> v;
     for (Nanos i = 1; i <= 100; ++i) v.push_back(i);
-    EXPECT_EQ(nearest_rank(v, 50), 50);
-    EXPECT_EQ(nearest_rank(v, 95), 95);
-    EXPECT_EQ(nearest_rank(v, 99), 99);
-    EXPECT_EQ(nearest_rank(v, 100), 100);
-    EXPECT_EQ(nearest_rank(v, 0), 1);
+    std::shuffle(v.begin(), v.end(), std::mt19937(7));
+    EXPECT_EQ(percentile_of(v, 50), 50);
+    EXPECT_EQ(percentile_of(v, 95), 95);
+    EXPECT_EQ(percentile_of(v, 99), 99);
+    EXPECT_EQ(percentile_of(v, 100), 100);
+    EXPECT_EQ(percentile_of(v, 0), 1);
 }
 
 TEST(StatsPercentile, SmallSetsTakeTheNextRankUp) {
-    EXPECT_FALSE(nearest_rank({}, 50).has_value());
-    const std::vector<Nanos> one{7};
-    EXPECT_EQ(nearest_rank(one, 50), 7);
-    EXPECT_EQ(nearest_rank(one, 99), 7);
+    EXPECT_FALSE(percentile_of({}, 50).has_value());
+    EXPECT_EQ(percentile_of({7}, 50), 7);
+    EXPECT_EQ(percentile_of({7}, 99), 7);
     // ceil(0.5 * 4) = 2nd, ceil(0.95 * 4) = 4th: never an interpolated 25.
-    const std::vector<Nanos> four{10, 20, 30, 40};
-    EXPECT_EQ(nearest_rank(four, 50), 20);
-    EXPECT_EQ(nearest_rank(four, 95), 40);
-    const std::vector<Nanos> ten{1, 2, 3, 4, 5, 6, 7, 8, 9, 10};
-    EXPECT_EQ(nearest_rank(ten, 95), 10);
-    EXPECT_EQ(nearest_rank(ten, 50), 5);
+    EXPECT_EQ(percentile_of({40, 10, 30, 20}, 50), 20);
+    EXPECT_EQ(percentile_of({40, 10, 30, 20}, 95), 40);
+    const std::vector<Nanos> ten{10, 9, 8, 7, 6, 5, 4, 3, 2, 1};
+    EXPECT_EQ(percentile_of(ten, 95), 10);
+    EXPECT_EQ(percentile_of(ten, 50), 5);
     // The rank rounds up, never to the nearest: ceil(0.41 * 10) = 5, ceil(0.4 * 3) = 2.
-    EXPECT_EQ(nearest_rank(ten, 41), 5);
-    const std::vector<Nanos> three{1, 2, 3};
-    EXPECT_EQ(nearest_rank(three, 40), 2);
+    EXPECT_EQ(percentile_of(ten, 41), 5);
+    EXPECT_EQ(percentile_of({3, 1, 2}, 40), 2);
+    // Repeated values count once each.
+    EXPECT_EQ(percentile_of({5, 5, 5, 1}, 25), 1);
+    EXPECT_EQ(percentile_of({5, 5, 5, 1}, 26), 5);
+}
+
+TEST(StatsPercentile, ExactWhileTheDistinctValuesFit) {
+    // 200,000 turnarounds of a µs-stamped capture: 1,000 distinct values, in batches of
+    // any order.
+    std::mt19937 random(1);
+    std::uniform_int_distribution<Nanos> micros(4'000, 4'999);
+    std::vector<Nanos> values;
+    for (int i = 0; i < 200'000; ++i) values.push_back(micros(random) * 1000);
+    DurationCounts counts(1024);
+    for (Nanos v : values) counts.add(v);
+    counts.finish();
+    EXPECT_EQ(counts.size(), values.size());
+    EXPECT_EQ(counts.bin_width(), 0);
+    EXPECT_EQ(counts.held(), 1000U);
+    std::sort(values.begin(), values.end());
+    for (unsigned p = 0; p <= 100; ++p) EXPECT_EQ(counts.percentile(p), exact_rank(values, p)) << p;
+}
+
+TEST(StatsPercentile, BeyondTheBoundBinnedAtMostOneBinLowInBoundedMemory) {
+    // A nanosecond-stamped live line: every value distinct, 0-50 ms, a few negative ones
+    // (a clock stepping back), a single far outlier.
+    std::mt19937 random(2);
+    std::uniform_int_distribution<Nanos> nanos(-2'000'000, 50'000'000);
+    std::vector<Nanos> values;
+    for (int i = 0; i < 300'000; ++i) values.push_back(nanos(random));
+    values.push_back(3'600 * kNanosPerSecond);
+    DurationCounts counts(1024);
+    for (Nanos v : values) counts.add(v);
+    counts.finish();
+    EXPECT_EQ(counts.size(), values.size());
+    EXPECT_LE(counts.held(), 1024U);
+    // 52 ms in at most 1,024 bins: 64 µs (812 bins; 32 µs would need 1,625).
+    EXPECT_EQ(counts.bin_width(), 64'000);
+    std::vector<Nanos> sorted = values;
+    std::sort(sorted.begin(), sorted.end());
+    for (unsigned p = 0; p < 100; ++p) {
+        const Nanos exact = exact_rank(sorted, p);
+        const Nanos binned = *counts.percentile(p);
+        EXPECT_LE(binned, exact) << p;
+        EXPECT_LT(exact - binned, counts.bin_width()) << p;
+        EXPECT_TRUE(std::binary_search(sorted.begin(), sorted.end(), binned)) << p;
+    }
+    EXPECT_EQ(counts.percentile(100), 3'600 * kNanosPerSecond);  // the maximum stays exact
+}
+
+TEST(StatsPercentile, MergedCountsKeepTheWiderBins) {
+    std::mt19937 random(3);
+    std::uniform_int_distribution<Nanos> wide(0, 900'000'000);
+    std::uniform_int_distribution<Nanos> narrow(10'000, 10'099);
+    DurationCounts a(256);
+    DurationCounts b(256);
+    DurationCounts pooled(1024);
+    std::vector<Nanos> values;
+    for (int i = 0; i < 50'000; ++i) {
+        const Nanos x = wide(random);
+        const Nanos y = narrow(random) * 1000;
+        a.add(x);
+        b.add(y);
+        values.insert(values.end(), {x, y});
+    }
+    a.finish();
+    b.finish();
+    EXPECT_EQ(b.bin_width(), 0);  // 100 distinct values
+    pooled.merge(a);
+    pooled.merge(b);
+    pooled.finish();
+    EXPECT_EQ(pooled.size(), values.size());
+    EXPECT_GE(pooled.bin_width(), a.bin_width());
+    EXPECT_LE(pooled.held(), 1024U);
+    std::sort(values.begin(), values.end());
+    for (unsigned p : {1U, 25U, 50U, 75U, 95U, 99U}) {
+        const Nanos exact = exact_rank(values, p);
+        const Nanos binned = *pooled.percentile(p);
+        EXPECT_LE(binned, exact) << p;
+        EXPECT_LT(exact - binned, pooled.bin_width()) << p;
+    }
+    EXPECT_EQ(pooled.percentile(100), *std::max_element(values.begin(), values.end()));
 }
 
 TEST(StatsCounts, PerSlaveAndFunction) {
@@ -303,13 +402,13 @@ TEST(StatsTurnaround, PercentilesOfAnswers1To100Ms) {
 
     const std::string csv = render_stats(s, StatsFormat::csv);
     EXPECT_NE(
-        csv.find("\n1,3,100,101,0,0,0,0,0,100,50.000,95.000,99.000,100.000,200.000,200.000\n"),
+        csv.find("\n1,3,100,101,0,0,0,0,0,100,50.000,95.000,99.000,100.000,200.000,200.000,0.000,0.000\n"),
         std::string::npos)
         << csv;
     const FunctionStats& row = s.functions().at({1, 3});
     EXPECT_EQ(row.turnarounds.size(), 100U);
-    EXPECT_EQ(nearest_rank(row.turnarounds, 50), 50 * kMs);
-    EXPECT_EQ(nearest_rank(row.turnarounds, 99), 99 * kMs);
+    EXPECT_EQ(row.turnarounds.percentile(50), 50 * kMs);
+    EXPECT_EQ(row.turnarounds.percentile(99), 99 * kMs);
 }
 
 TEST(StatsCycle, EachRowsPollIsTheMostFrequentOfItsOwnSlaveAndFunction) {
@@ -356,16 +455,96 @@ TEST(StatsCycle, MedianAndMaxOfTheMostFrequentPoll) {
     ASSERT_NE(main, nullptr);
     EXPECT_EQ(main->first.data, (std::array<std::uint8_t, 4>{0, 0, 0, 2}));
     EXPECT_EQ(main->second.requests, 4U);
-    EXPECT_EQ(nearest_rank(main->second.cycles, 50), 100 * kMs);
-    EXPECT_EQ(nearest_rank(main->second.cycles, 100), 200 * kMs);
+    EXPECT_EQ(main->second.cycles.percentile(50), 100 * kMs);
+    EXPECT_EQ(main->second.cycles.percentile(100), 200 * kMs);
     EXPECT_EQ(s.polls().size(), 2U);
-    EXPECT_EQ(s.polls().rbegin()->second.cycles, std::vector<Nanos>{50 * kMs});
+    EXPECT_EQ(s.polls().rbegin()->second.cycles.size(), 1U);
+    EXPECT_EQ(s.polls().rbegin()->second.cycles.percentile(50), 50 * kMs);
 
     const std::string text = render_stats(s, StatsFormat::text);
     EXPECT_NE(text.find("poll cycle: 100.00 ms median, 200.00 ms max (slave 1 function 03 "
                         "0x0000 x2, 4 requests)"),
               std::string::npos)
         << text;
+}
+
+TEST(StatsCycle, AFullPollTableForgetsTheRarestRequests) {
+    // A master polling three registers, every 10, 100 and 1,000 ms, and writing a new
+    // value every 10 ms: 20,000 distinct writes come and go, the three polls stay.
+    const Bytes fast = with_crc({0x01, 0x03, 0x00, 0x10, 0x00, 0x01});
+    const Bytes medium = with_crc({0x01, 0x03, 0x00, 0x20, 0x00, 0x01});
+    const Bytes slow = with_crc({0x01, 0x04, 0x00, 0x30, 0x00, 0x01});
+    BusStats s;
+    for (int tick = 0; tick < 20'000; ++tick) {
+        const Nanos t = tick * 10 * kMs;
+        s.add(make_record(Kind::request, fast, t));
+        if (tick % 10 == 0) s.add(make_record(Kind::request, medium, t + kMs));
+        if (tick % 100 == 0) s.add(make_record(Kind::request, slow, t + 2 * kMs));
+        const auto low = static_cast<std::uint8_t>(tick);
+        const auto high = static_cast<std::uint8_t>(tick >> 8);
+        s.add(make_record(Kind::request, with_crc({0x02, 0x06, 0x00, 0x01, high, low}),
+                          t + 5 * kMs));
+    }
+    s.finish();
+    EXPECT_LE(s.polls().size(), BusStats::kMaxPolls);
+    EXPECT_EQ(s.polls().size() + s.forgotten_polls(), 20'003U);  // every poll counted once
+    const std::pair<Bytes, Nanos> expected[] = {{fast, 10 * kMs}, {medium, 100 * kMs},
+                                                {slow, 1000 * kMs}};
+    for (const auto& [request, cycle] : expected) {
+        PollKey key{request[0], request[1], {request[2], request[3], request[4], request[5]}, 4};
+        ASSERT_EQ(s.polls().count(key), 1U) << cycle;
+        const PollStats& poll = s.polls().at(key);
+        EXPECT_EQ(poll.requests * static_cast<std::uint64_t>(cycle), 200'000U * kMs) << cycle;
+        EXPECT_EQ(poll.cycles.size(), poll.requests - 1) << cycle;
+        EXPECT_EQ(poll.cycles.percentile(50), cycle);
+    }
+    EXPECT_EQ(s.main_poll(std::nullopt)->second.requests, 20'000U);
+    EXPECT_EQ(s.functions().at({2, 6}).requests, 20'000U);  // the row still counts them all
+
+    const std::string note = fmt::format(
+        "note: {} rare polls forgotten to keep to 512 distinct requests (their requests still "
+        "count in the rows)\n",
+        s.forgotten_polls());
+    EXPECT_NE(render_stats(s, StatsFormat::text).find(note), std::string::npos);
+    EXPECT_NE(render_stats(s, StatsFormat::jsonl)
+                  .find(fmt::format("\"forgotten_polls\":{},", s.forgotten_polls())),
+              std::string::npos);
+}
+
+TEST(StatsTurnaround, BinnedPercentilesAreMarkedInEveryFormat) {
+    // 5,000 answers whose turnarounds are all different: 4.000-8.999 ms in 1 µs steps
+    // (i * 7 % 5000 takes every value of 0-4999 once).
+    BusStats s;
+    Nanos t = 0;
+    for (Nanos i = 0; i < 5'000; ++i) {
+        s.add(make_record(Kind::request, kRead, t));
+        s.add(make_record(Kind::response, kAnswer, t + 20 * kMs, 4 * kMs + (i * 7 % 5'000) * 1000));
+        t += 100 * kMs;
+    }
+    s.finish();
+    const FunctionStats& row = s.functions().at({1, 3});
+    EXPECT_EQ(row.turnarounds.bin_width(), 8'000);  // 5,000 µs in 625 bins of 8 µs
+    // The 2,500th value, 6.499 ms, lies in the bin 6.496-6.503 ms, and 6.496 came.
+    EXPECT_EQ(row.turnarounds.percentile(50), 6'496'000);
+    EXPECT_EQ(row.turnarounds.percentile(100), 8'999'000);
+
+    const std::string text = render_stats(s, StatsFormat::text);
+    EXPECT_NE(text.find("note: ~ marks a percentile counted in bins (more than 1024 distinct "
+                        "turnarounds in a row or cycles of a poll): up to one bin (0.008 ms at "
+                        "most) below the exact figure\n"),
+              std::string::npos)
+        << text;
+    EXPECT_NE(text.find("5000  ~6.50  ~8.74  ~8.94  9.00  100.00   100.00\n"), std::string::npos)
+        << text;
+    const std::string csv = render_stats(s, StatsFormat::csv);
+    EXPECT_NE(csv.find("\n1,3,5000,5000,0,0,0,0,0,5000,6.496,8.744,8.944,8.999,100.000,100.000,"
+                       "0.008,0.000\n"),
+              std::string::npos)
+        << csv;
+    const std::string jsonl = render_stats(s, StatsFormat::jsonl);
+    EXPECT_NE(jsonl.find("\"turnaround_bin_ms\":0.008,\"cycle_bin_ms\":0.000}"),
+              std::string::npos)
+        << jsonl;
 }
 
 // Two transactions on 9600 8N1, one chunk per frame (time = last byte): the first request
@@ -393,10 +572,11 @@ TEST(StatsPipeline, UtilisationTurnaroundAndCycleOfATimedCapture) {
     EXPECT_EQ(row.answers, 2U);
     // End of request (0.010) to start of answer (0.030 - 9 characters)
     ASSERT_EQ(row.turnarounds.size(), 2U);
-    EXPECT_EQ(row.turnarounds[0], 20 * kMs - 9 * c);
+    EXPECT_EQ(row.turnarounds.percentile(0), 20 * kMs - 9 * c);
     const auto* poll = s.main_poll(BusStats::Key{1, 3});
     ASSERT_NE(poll, nullptr);
-    EXPECT_EQ(poll->second.cycles, std::vector<Nanos>{100 * kMs});
+    ASSERT_EQ(poll->second.cycles.size(), 1U);
+    EXPECT_EQ(poll->second.cycles.percentile(50), 100 * kMs);
 
     const std::string text = render_stats(s, StatsFormat::text);
     EXPECT_NE(text.find("utilisation 27.6 %"), std::string::npos) << text;
@@ -416,7 +596,7 @@ TEST(StatsPipeline, UntimedInputSaysSoAndLeavesTimesUnknown) {
         << text;
     EXPECT_EQ(text.find("utilisation 0"), std::string::npos) << text;
     const std::string csv = render_stats(s, StatsFormat::csv);
-    EXPECT_NE(csv.find("\n1,3,1,1,0,0,0,0,0,0,,,,,,\n"), std::string::npos) << csv;
+    EXPECT_NE(csv.find("\n1,3,1,1,0,0,0,0,0,0,,,,,,,,\n"), std::string::npos) << csv;
     const std::string jsonl = render_stats(s, StatsFormat::jsonl);
     EXPECT_NE(jsonl.find("\"timed\":false,\"duration_s\":null"), std::string::npos) << jsonl;
     EXPECT_NE(jsonl.find("\"utilisation_pct\":null"), std::string::npos) << jsonl;
@@ -430,10 +610,10 @@ TEST(StatsCsv, HeaderRowsAndTheAllRow) {
     EXPECT_EQ(lines[0],
               "slave,function,requests,answers,exceptions,crc_errors,no_answer,broadcasts,"
               "unsolicited,turnarounds,turnaround_p50_ms,turnaround_p95_ms,turnaround_p99_ms,"
-              "turnaround_max_ms,cycle_median_ms,cycle_max_ms");
+              "turnaround_max_ms,cycle_median_ms,cycle_max_ms,turnaround_bin_ms,cycle_bin_ms");
     // turnaround 20 ms - 9 characters = 10.625 ms
-    EXPECT_EQ(lines[1], "1,3,2,2,0,0,0,0,0,2,10.625,10.625,10.625,10.625,100.000,100.000");
-    EXPECT_EQ(lines[2], "all,all,2,2,0,0,0,0,0,2,10.625,10.625,10.625,10.625,100.000,100.000");
+    EXPECT_EQ(lines[1], "1,3,2,2,0,0,0,0,0,2,10.625,10.625,10.625,10.625,100.000,100.000,0.000,0.000");
+    EXPECT_EQ(lines[2], "all,all,2,2,0,0,0,0,0,2,10.625,10.625,10.625,10.625,100.000,100.000,0.000,0.000");
 }
 
 TEST(StatsJsonl, EveryLineIsOneObjectWithTheKeys) {

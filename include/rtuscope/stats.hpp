@@ -3,21 +3,21 @@
 // the figures (counts, turnaround percentiles, poll cycles, bus utilisation) at the end
 // as an aligned text table, CSV or JSON lines.
 //
-// Memory: counters per slave/function and per poll (a map entry of ~100 bytes per
-// distinct request: a master writing many different values makes many), plus one Nanos
-// per measured turnaround and per repeated poll request, kept because exact percentiles
-// need every value. It grows with the capture: `scripts/bench`'s 1M-frame capture
-// (295,000 distinct requests, 480,000 turnarounds) peaks at 45 MiB. The frames
-// themselves are never kept.
+// Memory does not grow with the capture, so that a sniffer can run for weeks and `stats`
+// reads a capture of any length: durations are counted per distinct value in bounded
+// tables (DurationCounts, at most ~22 KiB each), one per row and per poll, and there are
+// at most kMaxPolls polls (~11 MiB if every one of them were full) and 256 x 128 rows
+// (~8 MiB of counters if noise hit every slave and function). The frames themselves are
+// never kept.
 #pragma once
 
 #include <array>
+#include <cstddef>
 #include <cstdint>
 #include <cstdio>
 #include <map>
 #include <memory>
 #include <optional>
-#include <span>
 #include <string>
 #include <string_view>
 #include <utility>
@@ -29,10 +29,52 @@ namespace rtuscope {
 
 enum class StatsFormat : std::uint8_t { text, csv, jsonl };
 
-// Nearest-rank percentile of sorted values: the smallest value that at least `percent`
-// per cent of the values are less than or equal to, i.e. sorted[ceil(percent/100 * n) - 1].
-// Always one of the measured values, never an interpolation. nullopt when empty.
-std::optional<Nanos> nearest_rank(std::span<const Nanos> sorted, unsigned percent);
+// Durations (turnarounds, poll cycles) for nearest-rank percentiles, in bounded memory.
+// Every distinct value is counted exactly while there are at most `max_distinct` of
+// them; beyond that, values are counted in bins of 1 µs, then 2, 4, 8 µs ... (as wide as
+// it takes to stay within the bound), each bin standing for the smallest value it holds. A percentile is the smallest value that at least `percent` per cent of the
+// values are less than or equal to (sorted[ceil(percent/100 * n) - 1]): always a
+// measured value, never an interpolation; once binned, at most one bin width below the
+// exact one. The maximum is always exact. At most ~22 KiB however many values come (room
+// for 1,280 bins while counting, and 256 values waiting to be counted).
+class DurationCounts {
+  public:
+    static constexpr std::size_t kMaxDistinct = 1024;
+    DurationCounts() = default;
+    explicit DurationCounts(std::size_t max_distinct) : max_distinct_(max_distinct) {}
+
+    void add(Nanos value);
+    // Pools `other`'s values into these, at the wider of the two resolutions.
+    void merge(const DurationCounts& other);
+    // Counts what add() gathered; percentile() and merge() need it done first.
+    void finish();
+
+    [[nodiscard]] std::uint64_t size() const { return size_; }
+    [[nodiscard]] bool empty() const { return size_ == 0; }
+    [[nodiscard]] std::optional<Nanos> percentile(unsigned percent) const;
+    // 0 while every value is counted exactly, else the width of a bin.
+    [[nodiscard]] Nanos bin_width() const { return width_ == 1 ? 0 : width_; }
+    // Distinct values or bins held: at most max_distinct after finish().
+    [[nodiscard]] std::size_t held() const { return counts_.size(); }
+
+  private:
+    struct Bin {
+        Nanos smallest;
+        std::uint64_t count;
+    };
+    static std::vector<Bin> bins_of(std::vector<Nanos> values);
+    [[nodiscard]] Nanos bin_of(Nanos value) const;
+    void absorb(const std::vector<Bin>& sorted_bins);
+    void widen_to(Nanos width);
+    void join_bins();  // of one bin at width_ into one, the smallest value kept
+
+    std::size_t max_distinct_ = kMaxDistinct;
+    Nanos width_ = 1;
+    std::uint64_t size_ = 0;
+    Nanos max_ = 0;
+    std::vector<Bin> counts_;  // sorted; one per bin of width_
+    std::vector<Nanos> added_;  // since the last count: at most a quarter of max_distinct
+};
 
 // Figures of one slave and function code (the function without its exception bit).
 struct FunctionStats {
@@ -45,8 +87,8 @@ struct FunctionStats {
     std::uint64_t broadcasts = 0;   // requests to the broadcast address
     std::uint64_t unsolicited = 0;  // answers and exceptions noted txn.unsolicited
     // End of request to start of answer, for normal and exception answers alike (both
-    // show how fast the device reacts), where the input has timing. Sorted by finish().
-    std::vector<Nanos> turnarounds;
+    // show how fast the device reacts), where the input has timing.
+    DurationCounts turnarounds;
 };
 
 // A poll: requests with the same slave, function and first 4 data bytes (for reads the
@@ -63,8 +105,9 @@ struct PollKey {
 
 struct PollStats {
     std::uint64_t requests = 0;
+    std::uint64_t first_request = 0;  // BusStats' count of requests when it came first
     Nanos last_start = kNoTime;
-    std::vector<Nanos> cycles;  // sorted by finish()
+    DurationCounts cycles;
 };
 
 struct BusFigures {
@@ -82,17 +125,25 @@ class BusStats {
   public:
     using Key = std::pair<std::uint8_t, std::uint8_t>;  // slave, function & 0x7F
 
+    // Distinct requests kept as polls. A full table forgets the quarter of its polls that
+    // came least often for the time they have been in it (by requests, not by clock, so
+    // untimed input is treated alike): one-off writes and rare requests go, a master's
+    // poll list stays.
+    static constexpr std::size_t kMaxPolls = 512;
+
     void begin(const SessionInfo& session) { session_ = session; }
     void add(const Record& record);
-    // Sorts what the percentiles need; call once, after the last add().
+    // Counts what the percentiles need; call once, after the last add().
     void finish();
 
     [[nodiscard]] const SessionInfo& session() const { return session_; }
     [[nodiscard]] const std::map<Key, FunctionStats>& functions() const { return functions_; }
     [[nodiscard]] const std::map<PollKey, PollStats>& polls() const { return polls_; }
     [[nodiscard]] const BusFigures& bus() const { return bus_; }
-    // Every slave and function summed, turnarounds pooled (sorted).
+    // Every slave and function summed, turnarounds pooled.
     [[nodiscard]] const FunctionStats& all() const { return all_; }
+    // Polls forgotten to keep the table within kMaxPolls.
+    [[nodiscard]] std::uint64_t forgotten_polls() const { return forgotten_polls_; }
 
     [[nodiscard]] bool timed() const;
     [[nodiscard]] std::optional<Nanos> duration() const;
@@ -107,9 +158,14 @@ class BusStats {
         std::optional<Key> key) const;
 
   private:
+    PollStats& poll_of(const PollKey& key);
+    void forget_rare_polls();
+
     SessionInfo session_;
     std::map<Key, FunctionStats> functions_;
     std::map<PollKey, PollStats> polls_;
+    std::uint64_t requests_ = 0;  // to date, for the polls' ages
+    std::uint64_t forgotten_polls_ = 0;
     BusFigures bus_;
     FunctionStats all_;
 };
