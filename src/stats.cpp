@@ -244,9 +244,9 @@ std::string render_csv(const BusStats& stats) {
         const std::string slave = f.key ? fmt::format("{}", f.key->first) : "all";
         const std::string function = f.key ? fmt::format("{}", f.key->second) : "all";
         out += fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n", slave,
-                           function, c.requests, c.answers, c.exceptions, c.crc_errors,
-                           c.no_answer, c.broadcasts, c.unsolicited, c.turnarounds.size(),
-                           ms(f.p50, 3, ""), ms(f.p95, 3, ""), ms(f.p99, 3, ""), ms(f.max, 3, ""),
+                           function, c.requests, c.answers, c.exceptions, c.crc_errors, c.no_answer,
+                           c.broadcasts, c.unsolicited, c.turnarounds.size(), ms(f.p50, 3, ""),
+                           ms(f.p95, 3, ""), ms(f.p99, 3, ""), ms(f.max, 3, ""),
                            ms(f.cycle_median, 3, ""), ms(f.cycle_max, 3, ""),
                            bin_ms(&c.turnarounds, ""), bin_ms(f.cycles, ""));
     }
@@ -302,8 +302,8 @@ std::string render_jsonl(const BusStats& stats) {
                          : "null",
         bus.frames, bus.bytes, bus.noise_runs, bus.noise_bytes, bus.invalid, bus.unknown,
         static_cast<double>(session.line.char_time()) / 1e6,
-        utilisation ? fmt::format("{:.3f}", *utilisation) : "null", poll,
-        stats.forgotten_polls(), json_row(rows.back()));
+        utilisation ? fmt::format("{:.3f}", *utilisation) : "null", poll, stats.forgotten_polls(),
+        json_row(rows.back()));
     for (std::size_t i = 0; i + 1 < rows.size(); ++i) {
         out += fmt::format("{{{}}}\n", json_row(rows[i]));
     }
@@ -516,15 +516,13 @@ void BusStats::forget_rare_polls() {
     std::vector<std::pair<double, Entry>> by_rate;
     by_rate.reserve(polls_.size());
     for (auto it = polls_.begin(); it != polls_.end(); ++it) by_rate.emplace_back(rate(it), it);
-    const std::size_t forget = polls_.size() / 4;
+    const auto forgotten = std::next(by_rate.begin(), by_rate.size() / 4);
     // Equal rates go by key, so that the same input always keeps the same polls.
-    std::nth_element(by_rate.begin(), by_rate.begin() + static_cast<std::ptrdiff_t>(forget),
-                     by_rate.end(), [](const auto& a, const auto& b) {
-                         return a.first != b.first ? a.first < b.first
-                                                   : a.second->first < b.second->first;
-                     });
-    for (std::size_t i = 0; i < forget; ++i) polls_.erase(by_rate[i].second);
-    forgotten_polls_ += forget;
+    std::nth_element(by_rate.begin(), forgotten, by_rate.end(), [](const auto& a, const auto& b) {
+        return a.first != b.first ? a.first < b.first : a.second->first < b.second->first;
+    });
+    for (auto it = by_rate.begin(); it != forgotten; ++it) polls_.erase(it->second);
+    forgotten_polls_ += by_rate.size() / 4;
 }
 
 bool BusStats::timed() const {

@@ -401,9 +401,9 @@ TEST(StatsTurnaround, PercentilesOfAnswers1To100Ms) {
     s.finish();
 
     const std::string csv = render_stats(s, StatsFormat::csv);
-    EXPECT_NE(
-        csv.find("\n1,3,100,101,0,0,0,0,0,100,50.000,95.000,99.000,100.000,200.000,200.000,0.000,0.000\n"),
-        std::string::npos)
+    EXPECT_NE(csv.find("\n1,3,100,101,0,0,0,0,0,100,50.000,95.000,99.000,100.000,200.000,200.000,"
+                       "0.000,0.000\n"),
+              std::string::npos)
         << csv;
     const FunctionStats& row = s.functions().at({1, 3});
     EXPECT_EQ(row.turnarounds.size(), 100U);
@@ -482,14 +482,14 @@ TEST(StatsCycle, AFullPollTableForgetsTheRarestRequests) {
         if (tick % 100 == 0) s.add(make_record(Kind::request, slow, t + 2 * kMs));
         const auto low = static_cast<std::uint8_t>(tick);
         const auto high = static_cast<std::uint8_t>(tick >> 8);
-        s.add(make_record(Kind::request, with_crc({0x02, 0x06, 0x00, 0x01, high, low}),
-                          t + 5 * kMs));
+        s.add(
+            make_record(Kind::request, with_crc({0x02, 0x06, 0x00, 0x01, high, low}), t + 5 * kMs));
     }
     s.finish();
     EXPECT_LE(s.polls().size(), BusStats::kMaxPolls);
     EXPECT_EQ(s.polls().size() + s.forgotten_polls(), 20'003U);  // every poll counted once
-    const std::pair<Bytes, Nanos> expected[] = {{fast, 10 * kMs}, {medium, 100 * kMs},
-                                                {slow, 1000 * kMs}};
+    const std::pair<Bytes, Nanos> expected[] = {
+        {fast, 10 * kMs}, {medium, 100 * kMs}, {slow, 1000 * kMs}};
     for (const auto& [request, cycle] : expected) {
         PollKey key{request[0], request[1], {request[2], request[3], request[4], request[5]}, 4};
         ASSERT_EQ(s.polls().count(key), 1U) << cycle;
@@ -542,8 +542,7 @@ TEST(StatsTurnaround, BinnedPercentilesAreMarkedInEveryFormat) {
               std::string::npos)
         << csv;
     const std::string jsonl = render_stats(s, StatsFormat::jsonl);
-    EXPECT_NE(jsonl.find("\"turnaround_bin_ms\":0.008,\"cycle_bin_ms\":0.000}"),
-              std::string::npos)
+    EXPECT_NE(jsonl.find("\"turnaround_bin_ms\":0.008,\"cycle_bin_ms\":0.000}"), std::string::npos)
         << jsonl;
 }
 
@@ -612,8 +611,10 @@ TEST(StatsCsv, HeaderRowsAndTheAllRow) {
               "unsolicited,turnarounds,turnaround_p50_ms,turnaround_p95_ms,turnaround_p99_ms,"
               "turnaround_max_ms,cycle_median_ms,cycle_max_ms,turnaround_bin_ms,cycle_bin_ms");
     // turnaround 20 ms - 9 characters = 10.625 ms
-    EXPECT_EQ(lines[1], "1,3,2,2,0,0,0,0,0,2,10.625,10.625,10.625,10.625,100.000,100.000,0.000,0.000");
-    EXPECT_EQ(lines[2], "all,all,2,2,0,0,0,0,0,2,10.625,10.625,10.625,10.625,100.000,100.000,0.000,0.000");
+    EXPECT_EQ(lines[1],
+              "1,3,2,2,0,0,0,0,0,2,10.625,10.625,10.625,10.625,100.000,100.000,0.000,0.000");
+    EXPECT_EQ(lines[2],
+              "all,all,2,2,0,0,0,0,0,2,10.625,10.625,10.625,10.625,100.000,100.000,0.000,0.000");
 }
 
 TEST(StatsJsonl, EveryLineIsOneObjectWithTheKeys) {

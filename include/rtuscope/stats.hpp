@@ -32,11 +32,12 @@ enum class StatsFormat : std::uint8_t { text, csv, jsonl };
 // Durations (turnarounds, poll cycles) for nearest-rank percentiles, in bounded memory.
 // Every distinct value is counted exactly while there are at most `max_distinct` of
 // them; beyond that, values are counted in bins of 1 µs, then 2, 4, 8 µs ... (as wide as
-// it takes to stay within the bound), each bin standing for the smallest value it holds. A percentile is the smallest value that at least `percent` per cent of the
-// values are less than or equal to (sorted[ceil(percent/100 * n) - 1]): always a
-// measured value, never an interpolation; once binned, at most one bin width below the
-// exact one. The maximum is always exact. At most ~22 KiB however many values come (room
-// for 1,280 bins while counting, and 256 values waiting to be counted).
+// it takes to stay within the bound), each bin standing for the smallest value it holds.
+// A percentile is the smallest value that at least `percent` per cent of the values are
+// less than or equal to (sorted[ceil(percent/100 * n) - 1]): always a measured value,
+// never an interpolation; once binned, at most one bin width below the exact one. The
+// maximum is always exact. At most ~22 KiB however many values come (room for 1,280
+// bins while counting, and 256 values waiting to be counted).
 class DurationCounts {
   public:
     static constexpr std::size_t kMaxDistinct = 1024;
@@ -72,7 +73,7 @@ class DurationCounts {
     Nanos width_ = 1;
     std::uint64_t size_ = 0;
     Nanos max_ = 0;
-    std::vector<Bin> counts_;  // sorted; one per bin of width_
+    std::vector<Bin> counts_;   // sorted; one per bin of width_
     std::vector<Nanos> added_;  // since the last count: at most a quarter of max_distinct
 };
 
