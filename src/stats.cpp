@@ -341,19 +341,23 @@ void DurationCounts::add(Nanos value) {
 
 void DurationCounts::finish() {
     if (added_.empty()) return;
-    const std::vector<Bin> bins = bins_of(std::move(added_));
+    // One bin per value, sorted; absorb() joins the equal ones with those of a bin.
+    std::sort(added_.begin(), added_.end());
+    std::vector<Bin> bins;
+    bins.reserve(added_.size());
+    for (Nanos v : added_) bins.push_back({v, 1});
     added_.clear();
     absorb(bins);
 }
 
 void DurationCounts::merge(const DurationCounts& other) {
+    assert(other.added_.empty() && "DurationCounts::finish() the other first");
     finish();
     if (other.empty()) return;
     max_ = empty() ? other.max_ : std::max(max_, other.max_);
     size_ += other.size_;
     widen_to(other.width_);
     absorb(other.counts_);
-    if (!other.added_.empty()) absorb(bins_of(other.added_));
 }
 
 std::optional<Nanos> DurationCounts::percentile(unsigned percent) const {
@@ -368,19 +372,6 @@ std::optional<Nanos> DurationCounts::percentile(unsigned percent) const {
         if (reached >= rank) return bin.smallest;
     }
     return max_;
-}
-
-std::vector<DurationCounts::Bin> DurationCounts::bins_of(std::vector<Nanos> values) {
-    std::sort(values.begin(), values.end());
-    std::vector<Bin> bins;
-    for (Nanos v : values) {
-        if (!bins.empty() && bins.back().smallest == v) {
-            ++bins.back().count;
-        } else {
-            bins.push_back({v, 1});
-        }
-    }
-    return bins;
 }
 
 Nanos DurationCounts::bin_of(Nanos value) const {

@@ -45,9 +45,10 @@ class DurationCounts {
     explicit DurationCounts(std::size_t max_distinct) : max_distinct_(max_distinct) {}
 
     void add(Nanos value);
-    // Pools `other`'s values into these, at the wider of the two resolutions.
+    // Pools `other`'s values into these, at the wider of the two resolutions; `other`
+    // must be finished.
     void merge(const DurationCounts& other);
-    // Counts what add() gathered; percentile() and merge() need it done first.
+    // Counts what add() gathered; percentile() needs it done first.
     void finish();
 
     [[nodiscard]] std::uint64_t size() const { return size_; }
@@ -63,7 +64,6 @@ class DurationCounts {
         Nanos smallest;
         std::uint64_t count;
     };
-    static std::vector<Bin> bins_of(std::vector<Nanos> values);
     [[nodiscard]] Nanos bin_of(Nanos value) const;
     void absorb(const std::vector<Bin>& sorted_bins);
     void widen_to(Nanos width);
