@@ -27,9 +27,20 @@ inline char* write_uint(char* p, std::uint64_t value) {
     return fmt::format_to(p, FMT_COMPILE("{}"), value);
 }
 
-// Exactly `digits` digits, zero-padded: the fraction of a time, a clock field.
+// Exactly `digits` digits, zero-padded: the fraction of a time, a clock field. Two digits
+// a step from a table: every record's time has six.
 inline char* write_digits(char* p, std::uint64_t value, int digits) {
-    for (int i = digits - 1; i >= 0; --i, value /= 10) p[i] = static_cast<char>('0' + value % 10);
+    static constexpr auto kTwoDigits = [] {
+        std::array<char, 200> pairs{};
+        for (std::size_t n = 0; n < 100; ++n) {
+            pairs[2 * n] = static_cast<char>('0' + n / 10);
+            pairs[2 * n + 1] = static_cast<char>('0' + n % 10);
+        }
+        return pairs;
+    }();
+    int i = digits;
+    for (; i >= 2; i -= 2, value /= 100) std::memcpy(p + i - 2, &kTwoDigits[2 * (value % 100)], 2);
+    if (i == 1) p[0] = static_cast<char>('0' + value % 10);
     return p + digits;
 }
 
@@ -94,20 +105,31 @@ inline char* write_millis(char* p, Nanos duration, int decimals) {
     return write_digits(p, steps % steps_per_ms, decimals);
 }
 
-// An RFC 4180 field, quoted when it holds a comma, a quote or a line break; at most
-// 2 * size + 2 characters.
-inline bool needs_csv_quotes(std::string_view text) {
-    static constexpr auto kSpecial = [] {
-        std::array<bool, 256> special{};
-        special[','] = special['"'] = special['\r'] = special['\n'] = true;
-        return special;
-    }();
-    return std::any_of(text.begin(), text.end(),
-                       [](char c) { return kSpecial[static_cast<unsigned char>(c)]; });
+// The characters that make an RFC 4180 field need quotes.
+inline constexpr auto kCsvSpecial = [] {
+    std::array<bool, 256> special{};
+    special[','] = special['"'] = special['\r'] = special['\n'] = true;
+    return special;
+}();
+
+inline bool is_csv_special(char c) {
+    return kCsvSpecial[static_cast<unsigned char>(c)];
 }
 
-inline char* write_csv_field(char* p, std::string_view text) {
-    if (!needs_csv_quotes(text)) return write_text(p, text);
+// Whether any of 16 characters is one of them. Compared as one vector (the compiler's
+// vector extension: SSE2 on x86-64, NEON on ARM), not one by one.
+inline bool holds_csv_special(const char* sixteen) {
+    using Block = char __attribute__((vector_size(16)));
+    Block block;
+    std::memcpy(&block, sixteen, sizeof block);
+    const auto hits = (block == ',') | (block == '"') | (block == '\r') | (block == '\n');
+    std::uint64_t halves[2];
+    std::memcpy(halves, &hits, sizeof halves);
+    return (halves[0] | halves[1]) != 0;
+}
+
+// Writes `text` with its quotes doubled, in quotes.
+inline char* write_quoted_csv_field(char* p, std::string_view text) {
     *p++ = '"';
     for (const char c : text) {
         if (c == '"') *p++ = '"';
@@ -115,6 +137,28 @@ inline char* write_csv_field(char* p, std::string_view text) {
     }
     *p++ = '"';
     return p;
+}
+
+// An RFC 4180 field, quoted when it holds a comma, a quote or a line break; at most
+// 2 * size + 2 characters. Copied 16 characters a step while they are looked at: every CSV
+// row's summary goes through here, and a check per character cost more than the copy. The
+// last step overlaps the one before rather than going on one character at a time.
+inline char* write_csv_field(char* p, std::string_view text) {
+    const char* const s = text.data();
+    const std::size_t n = text.size();
+    if (n < 16) {
+        for (std::size_t i = 0; i < n; ++i) {
+            if (is_csv_special(s[i])) return write_quoted_csv_field(p, text);
+            p[i] = s[i];
+        }
+        return p + n;
+    }
+    for (std::size_t i = 0;; i += 16) {
+        if (i + 16 > n) i = n - 16;
+        if (holds_csv_special(s + i)) return write_quoted_csv_field(p, text);
+        std::memcpy(p + i, s + i, 16);
+        if (i + 16 == n) return p + n;
+    }
 }
 
 // Appends through one of the writers above: room for `bound` characters, then trimmed.
