@@ -38,6 +38,24 @@ std::string run_to_text(const std::string& input, const Bus* bus, MakeSink make_
     return text;
 }
 
+// What a sink writes, between begin() and end(), for the records `feed` hands it.
+template <class MakeSink, class Feed>
+std::string sink_output(MakeSink make_sink, Feed feed) {
+    char* buffer = nullptr;
+    std::size_t size = 0;
+    std::FILE* out = open_memstream(&buffer, &size);
+    {
+        auto sink = make_sink(out);
+        sink->begin(SessionInfo{});
+        feed(*sink);
+        sink->end(Totals{}, {});
+    }
+    std::fclose(out);
+    std::string text(buffer, size);
+    std::free(buffer);
+    return text;
+}
+
 const char* const kZbFrames =
     "01 04 00 15 00 12 61 c3\n"  // set correction coefficient 1.8
     "01 04 00 15 00 12 61 c3\n"  // its echo
@@ -140,26 +158,16 @@ TEST(Outputs, LatencyReadsAsFmtRoundsTheMilliseconds) {
         latencies.push_back(static_cast<Nanos>(random() % 3'000'000'000) - 500'000'000);
     }
     auto written = [&](auto make_sink) {
-        char* buffer = nullptr;
-        std::size_t size = 0;
-        std::FILE* out = open_memstream(&buffer, &size);
-        {
-            auto sink = make_sink(out);
-            sink->begin(SessionInfo{});
+        return sink_output(make_sink, [&](RecordSink& sink) {
             Record r;
             r.kind = Kind::response;
             r.request_number = 1;
             for (const Nanos latency : latencies) {
                 ++r.number;
                 r.latency = latency;
-                sink->record(r);
+                sink.record(r);
             }
-            sink->end(Totals{}, {});
-        }
-        std::fclose(out);
-        std::string text(buffer, size);
-        std::free(buffer);
-        return text;
+        });
     };
 
     const std::string csv = written([](std::FILE* out) { return make_csv_sink(out); });
@@ -215,23 +223,14 @@ TEST(Csv, QuotesExactlyTheFieldsThatHoldACommaAQuoteOrALineBreak) {
         return quoted + "\"";
     };
 
-    char* buffer = nullptr;
-    std::size_t size = 0;
-    std::FILE* out = open_memstream(&buffer, &size);
-    {
-        auto sink = make_csv_sink(out);
-        sink->begin(SessionInfo{});
+    const std::string csv = sink_output(make_csv_sink, [&](RecordSink& sink) {
         Record r;
         r.kind = Kind::noise;
         for (const std::string& text : texts) {
             r.notes = {Note{"test.note", text}};  // the notes column is the note's text
-            sink->record(r);
+            sink.record(r);
         }
-        sink->end(Totals{}, {});
-    }
-    std::fclose(out);
-    const std::string csv(buffer, size);
-    std::free(buffer);
+    });
 
     std::string expected = csv.substr(0, csv.find('\n') + 1);
     for (const std::string& text : texts) {
