@@ -18,42 +18,41 @@
 namespace rtuscope {
 namespace {
 
-// Runs the pipeline over `input` into a sink writing to a memory buffer.
-template <class MakeSink>
-std::string run_to_text(const std::string& input, const Bus* bus, MakeSink make_sink) {
+// What `write` writes to a file, read back from memory.
+template <class Write>
+std::string written_to_memory(Write write) {
     char* buffer = nullptr;
     std::size_t size = 0;
     std::FILE* out = open_memstream(&buffer, &size);
-    {
-        auto source = source_from_memory(input, "mem", InputFormat::automatic);
-        EXPECT_TRUE(source);
-        PipelineOptions options;
-        options.bus = bus;
-        auto sink = make_sink(out);
-        EXPECT_TRUE(run_pipeline(**source, options, *sink));
-    }
+    write(out);
     std::fclose(out);
     std::string text(buffer, size);
     std::free(buffer);
     return text;
 }
 
+// Runs the pipeline over `input` into a sink writing to a memory buffer.
+template <class MakeSink>
+std::string run_to_text(const std::string& input, const Bus* bus, MakeSink make_sink) {
+    return written_to_memory([&](std::FILE* out) {
+        auto source = source_from_memory(input, "mem", InputFormat::automatic);
+        EXPECT_TRUE(source);
+        PipelineOptions options;
+        options.bus = bus;
+        auto sink = make_sink(out);
+        EXPECT_TRUE(run_pipeline(**source, options, *sink));
+    });
+}
+
 // What a sink writes, between begin() and end(), for the records `feed` hands it.
 template <class MakeSink, class Feed>
 std::string sink_output(MakeSink make_sink, Feed feed) {
-    char* buffer = nullptr;
-    std::size_t size = 0;
-    std::FILE* out = open_memstream(&buffer, &size);
-    {
+    return written_to_memory([&](std::FILE* out) {
         auto sink = make_sink(out);
         sink->begin(SessionInfo{});
         feed(*sink);
         sink->end(Totals{}, {});
-    }
-    std::fclose(out);
-    std::string text(buffer, size);
-    std::free(buffer);
-    return text;
+    });
 }
 
 const char* const kZbFrames =
