@@ -36,7 +36,7 @@ std::uint64_t boundary_scan(std::span<const std::uint8_t> bytes) {
         const auto head = bytes.subspan(at, std::min(bytes.size() - at, rtuscope::kMaxAdu));
         std::size_t length = 0;
         for (const rtuscope::Role role : {rtuscope::Role::request, rtuscope::Role::response}) {
-            const rtuscope::FrameLength fits = rules.frame_length(head, role);
+            const rtuscope::FrameLength fits = rules.frame_lengths(head).of(role);
             if (fits.kind != rtuscope::FrameLength::Kind::fixed || fits.bytes < rtuscope::kMinAdu ||
                 fits.bytes > head.size()) {
                 continue;

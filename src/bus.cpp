@@ -200,26 +200,24 @@ Status load_bus_file(Bus& bus, const std::string& path) {
     return ok_status();
 }
 
-FrameLength BusRules::frame_length(std::span<const std::uint8_t> head, Role role) const {
-    if (head.size() < 2) return FrameLength::need(2);
+FrameLengths BusRules::frame_lengths(std::span<const std::uint8_t> head) const {
+    FrameLengths standard = ProtocolRules::frame_lengths(head);
+    if (head.size() < 2 || (head[1] & 0x80U)) return standard;
     const Profile* profile = bus_.owner(head[0]);
-    const FunctionOverride* f = profile != nullptr
-                                    ? profile->function(static_cast<std::uint8_t>(head[1] & 0x7FU))
-                                    : nullptr;
-    if (f == nullptr || (head[1] & 0x80U)) return ProtocolRules::frame_length(head, role);
-    const FrameLength request = f->request_length != 0
-                                    ? FrameLength::fixed_at(f->request_length)
-                                    : ProtocolRules::frame_length(head, Role::request);
-    if (role == Role::request) return request;
+    const FunctionOverride* f = profile != nullptr ? profile->function(head[1]) : nullptr;
+    if (f == nullptr) return standard;
+    if (f->request_length != 0) standard.request = FrameLength::fixed_at(f->request_length);
     switch (f->answer) {
         case FunctionOverride::Answer::echo:
-            return request;
+            standard.response = standard.request;
+            break;
         case FunctionOverride::Answer::none:
-            return FrameLength::no_reading();
+            standard.response = FrameLength::no_reading();
+            break;
         case FunctionOverride::Answer::standard:
             break;
     }
-    return ProtocolRules::frame_length(head, role);
+    return standard;
 }
 
 bool BusRules::answer_is_echo(std::uint8_t slave, std::uint8_t function) const {

@@ -45,6 +45,68 @@ void add_crc_note(Frame& frame) {
                      crc.received & 0xFFU, crc.received >> 8)});
 }
 
+// How well a reading's CRC checks, for the choice between readings: right beats swapped
+// beats wrong.
+int crc_rank(CrcStatus status) {
+    return status == CrcStatus::ok ? 2 : status == CrcStatus::swapped ? 1 : 0;
+}
+
+// The reading at the start of `head` when the CRCs alone settle it: each reading's length
+// is in hand (or it has none) and exactly one checks best. Most positions are like that;
+// the rest go through attempt_at's general rules. Inlined: returned from a call, the
+// result came back through the stack and stalled its reader (as check_crc's did).
+struct PlainReading {
+    bool decided = false;  // false: the general rules must decide
+    bool found = false;    // decided: a reading checks (else no frame starts here)
+    std::size_t length = 0;
+    Role role = Role::request;
+    CrcCheck crc;
+};
+
+[[gnu::always_inline]] inline PlainReading plain_reading(std::span<const std::uint8_t> head,
+                                                         const FrameLengths& lengths) {
+    PlainReading result;
+    const FrameLength& request = lengths.request;
+    const FrameLength& response = lengths.response;
+    const bool request_fits = request.fixed_within(head.size());
+    const bool response_fits = response.fixed_within(head.size());
+    if ((!request_fits && request.kind != FrameLength::Kind::none) ||
+        (!response_fits && response.kind != FrameLength::Kind::none) ||
+        (!request_fits && !response_fits) ||
+        (request_fits && response_fits && request.bytes == response.bytes)) {
+        return result;  // undecided: attempt_at's general rules take over
+    }
+    result.decided = true;
+    if (!request_fits || !response_fits) {
+        const Role role = request_fits ? Role::request : Role::response;
+        const std::size_t n = lengths.of(role).bytes;
+        const CrcCheck crc = check_crc(head.first(n));
+        if (crc.status != CrcStatus::bad) result = {true, true, n, role, crc};
+        return result;
+    }
+    // One pass for both: the CRC of the shorter reading is where the longer one's begins.
+    const bool request_shorter = request.bytes < response.bytes;
+    const std::size_t shorter = request_shorter ? request.bytes : response.bytes;
+    const std::size_t longer = request_shorter ? response.bytes : request.bytes;
+    const std::uint16_t crc = crc16_modbus(head.first(shorter - 2));
+    const CrcCheck short_crc = crc_check_of(head.first(shorter), crc);
+    const CrcCheck long_crc = crc_check_of(
+        head.first(longer), crc16_modbus_update(crc, head.subspan(shorter - 2, longer - shorter)));
+    const int short_rank = crc_rank(short_crc.status);
+    const int long_rank = crc_rank(long_crc.status);
+    if (short_rank == long_rank) {
+        // Neither checks: no frame. Both equally: order and silences decide (attempt_at).
+        result.decided = short_rank == 0;
+        return result;
+    }
+    const bool short_wins = short_rank > long_rank;
+    result.found = true;
+    result.length = short_wins ? shorter : longer;
+    result.role = short_wins == request_shorter ? Role::request : Role::response;
+    result.crc = short_wins ? short_crc : long_crc;
+    return result;
+}
+
 double in_ms(Nanos t) {
     return static_cast<double>(t) / 1e6;
 }
@@ -215,6 +277,17 @@ Framer::Attempt Framer::attempt_at(std::size_t at, bool at_end) const {
     const std::uint8_t function = head[1];
     const ProtocolRules& rules = *options_.rules;
 
+    const FrameLengths lengths = rules.frame_lengths(head);
+    if (const auto plain = plain_reading(head, lengths); plain.decided) {
+        if (!plain.found) return none;
+        Attempt frame;
+        frame.outcome = Outcome::frame;
+        frame.length = plain.length;
+        frame.reading = reading_for(plain.role, function);
+        frame.crc = plain.crc;
+        return with_delimiter(frame, at, at_end);
+    }
+
     // Which reading the request/answer sequence expects here; on a two-port tap the
     // port it came from says it outright. Only asked when two readings fit or the length
     // was searched, so worked out on first use.
@@ -263,7 +336,7 @@ Framer::Attempt Framer::attempt_at(std::size_t at, bool at_end) const {
     };
 
     for (const Role role : {Role::request, Role::response}) {
-        const FrameLength length = rules.frame_length(head, role);
+        const FrameLength& length = lengths.of(role);
         Attempt candidate;
         candidate.outcome = Outcome::frame;
         candidate.reading = reading_for(role, function);
@@ -314,14 +387,18 @@ Framer::Attempt Framer::attempt_at(std::size_t at, bool at_end) const {
         return none;
     }
     if (best.outcome != Outcome::frame) return none;
-    if (best.delimiter == Delimiter::length_crc) {
-        if (followed_by_gap(best)) {
-            best.delimiter = Delimiter::gap;
-        } else if (at + best.length == bytes_.size()) {
-            best.delimiter = Delimiter::end_of_input;
-        }
+    if (best.delimiter != Delimiter::length_crc) return best;
+    return with_delimiter(best, at, at_end);
+}
+
+Framer::Attempt Framer::with_delimiter(Attempt frame, std::size_t at, bool at_end) const {
+    const std::size_t end = at + frame.length;
+    if (end == bytes_.size()) {
+        frame.delimiter = at_end ? Delimiter::gap : Delimiter::end_of_input;
+    } else {
+        frame.delimiter = gap_before(end) ? Delimiter::gap : Delimiter::length_crc;
     }
-    return best;
+    return frame;
 }
 
 Framer::Search Framer::search_length(std::size_t at, bool at_end, bool confirm) const {
@@ -365,8 +442,9 @@ Framer::Follows Framer::what_follows(std::size_t end, bool at_end) const {
     if (avail < 2) return at_end ? Follows::nothing : Follows::unknown_yet;
     const auto head = std::span(bytes_).subspan(end, std::min(avail, kMaxAdu));
     bool unknown_yet = false;
+    const FrameLengths lengths = options_.rules->frame_lengths(head);
     for (const Role role : {Role::request, Role::response}) {
-        const FrameLength length = options_.rules->frame_length(head, role);
+        const FrameLength& length = lengths.of(role);
         if (length.kind == FrameLength::Kind::fixed && length.bytes >= kMinAdu) {
             if (length.bytes > avail) {
                 unknown_yet = unknown_yet || !at_end;
@@ -456,8 +534,9 @@ Reading Framer::reading_by_shape(std::span<const std::uint8_t> frame, Nanos at,
                                  bool any_length_fits_search) const {
     if (frame.size() < 2) return Reading::unknown;
     bool fits[2] = {false, false};
+    const FrameLengths lengths = options_.rules->frame_lengths(frame);
     for (const Role role : {Role::request, Role::response}) {
-        const FrameLength length = options_.rules->frame_length(frame, role);
+        const FrameLength& length = lengths.of(role);
         fits[role == Role::response] =
             (length.kind == FrameLength::Kind::fixed && length.bytes == frame.size()) ||
             (any_length_fits_search && length.kind == FrameLength::Kind::search);
@@ -511,9 +590,10 @@ bool Framer::emit_if_truncated(std::size_t at, std::size_t n) {
     // A broken-off transmission: too short for the length its header implies.
     const auto piece = std::span(bytes_).subspan(at, n);
     const bool answer_first = awaits_answer(piece, byte_end(at));
+    const FrameLengths lengths = options_.rules->frame_lengths(piece);
     for (const Role role : {answer_first ? Role::response : Role::request,
                             answer_first ? Role::request : Role::response}) {
-        const FrameLength length = options_.rules->frame_length(piece, role);
+        const FrameLength& length = lengths.of(role);
         if (length.kind == FrameLength::Kind::fixed && length.bytes > n) {
             emit(at, n, RecordClass::invalid, reading_for(role, piece[1]), Delimiter::gap, {},
                  {{note_id::truncated, fmt::format("cut short: {} of {} bytes", n, length.bytes)}});
@@ -580,7 +660,7 @@ void Framer::emit(std::size_t at, std::size_t length, RecordClass cls, Reading r
     if (frame.channel != channel) frame.channel = channel;
     frame.source_line = piece.line;
     // Noise and frames cut short come without a CRC check, so without a CRC note.
-    add_crc_note(frame);
+    if (crc.status == CrcStatus::bad || crc.status == CrcStatus::swapped) add_crc_note(frame);
     frame.notes.insert(frame.notes.end(), notes.begin(), notes.end());
     // Silences are measured only before a chunk's first byte: a frame in the middle of
     // one chunk has none to note.

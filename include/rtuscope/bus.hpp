@@ -71,8 +71,7 @@ class BusRules final : public ProtocolRules {
   public:
     explicit BusRules(const Bus& bus) : bus_(bus) {}
 
-    [[nodiscard]] FrameLength frame_length(std::span<const std::uint8_t> head,
-                                           Role role) const override;
+    [[nodiscard]] FrameLengths frame_lengths(std::span<const std::uint8_t> head) const override;
     [[nodiscard]] bool answer_is_echo(std::uint8_t slave, std::uint8_t function) const override;
     [[nodiscard]] bool is_broadcast(std::uint8_t slave) const override;
     [[nodiscard]] bool expects_answer(std::uint8_t slave, std::uint8_t function) const override;

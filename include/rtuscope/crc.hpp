@@ -42,20 +42,15 @@ struct CrcCheck {
     std::uint16_t received = 0;  // last two bytes read low byte first
 };
 
-// A frame of fewer than 3 bytes cannot carry a CRC and checks as bad. Inline: returned
-// from a call, the 6-byte result was packed through the stack and read back whole, a
-// store-forwarding stall that cost more than the CRC of a short frame.
-inline CrcCheck check_crc(std::span<const std::uint8_t> frame) {
+// How a frame's last two bytes compare with `expected`, the CRC of all the bytes before
+// them. For a caller that has that CRC already (one pass serving two readings).
+inline CrcCheck crc_check_of(std::span<const std::uint8_t> frame, std::uint16_t expected) {
     CrcCheck check;
-    if (frame.size() < 3) {
-        check.status = CrcStatus::bad;
-        return check;
-    }
     const std::size_t n = frame.size();
-    check.expected = crc16_modbus(frame.first(n - 2));
+    check.expected = expected;
     check.received = static_cast<std::uint16_t>(frame[n - 2] | (frame[n - 1] << 8));
-    const auto swapped = static_cast<std::uint16_t>((check.expected >> 8) | (check.expected << 8));
-    if (check.received == check.expected) {
+    const auto swapped = static_cast<std::uint16_t>((expected >> 8) | (expected << 8));
+    if (check.received == expected) {
         check.status = CrcStatus::ok;
     } else if (check.received == swapped) {
         check.status = CrcStatus::swapped;
@@ -63,6 +58,18 @@ inline CrcCheck check_crc(std::span<const std::uint8_t> frame) {
         check.status = CrcStatus::bad;
     }
     return check;
+}
+
+// A frame of fewer than 3 bytes cannot carry a CRC and checks as bad. Inline: returned
+// from a call, the 6-byte result was packed through the stack and read back whole, a
+// store-forwarding stall that cost more than the CRC of a short frame.
+inline CrcCheck check_crc(std::span<const std::uint8_t> frame) {
+    if (frame.size() < 3) {
+        CrcCheck check;
+        check.status = CrcStatus::bad;
+        return check;
+    }
+    return crc_check_of(frame, crc16_modbus(frame.first(frame.size() - 2)));
 }
 
 const char* to_string(CrcStatus status);

@@ -72,6 +72,8 @@ class Framer {
     // Whether a frame ending at `end` is followed by a silence, the end or another frame.
     [[nodiscard]] Follows what_follows(std::size_t end, bool at_end) const;
     Attempt attempt_at(std::size_t at, bool at_end) const;
+    // `frame` with what ends it: a silence, the input's end, or its length and CRC alone.
+    [[nodiscard]] Attempt with_delimiter(Attempt frame, std::size_t at, bool at_end) const;
     // The first byte after `after` with a gap (>= t3.5) before it, looking at most kMaxAdu
     // bytes ahead; past that, any index beyond a whole ADU (a frame's length bound).
     [[nodiscard]] std::size_t next_gap(std::size_t after) const;

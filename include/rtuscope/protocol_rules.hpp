@@ -30,15 +30,31 @@ struct FrameLength {
     static FrameLength need(std::size_t n) { return {Kind::need_more, n}; }
     static FrameLength search_crc() { return {Kind::search, 0}; }
     static FrameLength no_reading() { return {Kind::none, 0}; }
+
+    // A length the bytes in hand hold whole: a frame's length, at least kMinAdu.
+    [[nodiscard]] bool fixed_within(std::size_t avail) const {
+        return kind == Kind::fixed && bytes >= kMinAdu && bytes <= avail;
+    }
+};
+
+// The lengths of the two ways the same bytes can be read. Every caller wants both, and
+// most codes give both from one look at the function code.
+struct FrameLengths {
+    FrameLength request;
+    FrameLength response;
+
+    [[nodiscard]] const FrameLength& of(Role role) const {
+        return role == Role::request ? request : response;
+    }
 };
 
 class ProtocolRules {
   public:
     virtual ~ProtocolRules() = default;
 
-    // Length of an ADU that starts with `head` (address first), read as `role`.
-    [[nodiscard]] virtual FrameLength frame_length(std::span<const std::uint8_t> head,
-                                                   Role role) const;
+    // Lengths of an ADU that starts with `head` (address first), read as a request and
+    // as an answer (normal or exception).
+    [[nodiscard]] virtual FrameLengths frame_lengths(std::span<const std::uint8_t> head) const;
     // Whether a normal answer to this function code repeats the request (05, 06, 08, ...),
     // so order and timing, not shape, tell request from answer.
     [[nodiscard]] virtual bool answer_is_echo(std::uint8_t slave, std::uint8_t function) const;
