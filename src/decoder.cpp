@@ -1305,6 +1305,11 @@ void DecodedPdu::clear() {
     exception = false;
     exception_code = 0;
     notes.clear();
+    // Usually the spares are empty (add_block took them): then the lists change places.
+    if (spare_blocks.empty()) {
+        spare_blocks.swap(blocks);
+        return;
+    }
     for (DataBlock& block : blocks) spare_blocks.push_back(std::move(block));
     blocks.clear();
 }
