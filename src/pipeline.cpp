@@ -189,7 +189,7 @@ Status run_pipeline(ChunkSource& source, const PipelineOptions& options, RecordS
     framer_options.chunk_time_is_start = session.source.chunk_time_is_start;
     framer_options.rules = rules;
     framer_options.expectation = &transactions;
-    Framer framer(framer_options, [&](const Frame& frame) { transactions.push(frame); });
+    Framer framer(framer_options, [&](Frame& frame) { transactions.push(frame); });
 
     Chunk chunk;
     Status status = ok_status();

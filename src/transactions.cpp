@@ -84,12 +84,12 @@ Record& Transactions::next_slot() {
     return record;
 }
 
-void Transactions::push(const Frame& frame) {
+void Transactions::push(Frame& frame) {
     // Filled in place; held (counted) at the end. Releasing older records on the way
     // leaves the slot where it is: head_ + count_ does not change.
     Record& record = next_slot();
     record.number = next_number_++;
-    record.frame = frame;
+    record.frame.take(frame);
     // The frame's notes open the record's; the record's (empty) list takes their place.
     record.notes.swap(record.frame.notes);
     const Frame& f = record.frame;

@@ -86,7 +86,7 @@ struct Harness {
                   o.expectation = &transactions;
                   return o;
               }(),
-              [this](const Frame& f) { transactions.push(f); }) {}
+              [this](Frame& f) { transactions.push(f); }) {}
 
     std::vector<Record>& run(const std::vector<Chunk>& chunks) {
         for (const Chunk& c : chunks) {

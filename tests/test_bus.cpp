@@ -66,7 +66,7 @@ struct BusHarness {
         FramerOptions o;
         o.rules = &rules;
         o.expectation = &transactions;
-        Framer framer(o, [&](const Frame& f) { transactions.push(f); });
+        Framer framer(o, [&](Frame& f) { transactions.push(f); });
         for (const Chunk& c : chunks) framer.push(c);
         framer.finish();
         transactions.finish();

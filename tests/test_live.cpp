@@ -118,7 +118,7 @@ TEST(LiveTransactions, TimeoutIsDecidedByTheClockNotTheNextFrame) {
     f.reading = Reading::request;
     f.start = 0;
     f.end = 10 * kMs;
-    t.push(std::move(f));
+    t.push(f);
     t.tick(900 * kMs);
     EXPECT_TRUE(records.empty());  // still waiting for the answer
     t.tick(1011 * kMs);

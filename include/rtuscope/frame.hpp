@@ -51,6 +51,23 @@ struct Frame {
     [[nodiscard]] std::uint8_t function() const { return bytes.size() < 2 ? 0 : bytes[1]; }
     // function code and data, without the address and the CRC
     [[nodiscard]] std::span<const std::uint8_t> pdu() const;
+    // Becomes `other`, giving it this frame's byte and note buffers in exchange: a frame
+    // handed on once per record costs no copy and no allocation. Sets every field (a new
+    // field must be added there too).
+    void take(Frame& other) {
+        bytes.swap(other.bytes);
+        notes.swap(other.notes);
+        // Nearly always the same channel (none): compared rather than assigned or swapped.
+        if (channel != other.channel) channel = other.channel;
+        start = other.start;
+        end = other.end;
+        silence_before = other.silence_before;
+        cls = other.cls;
+        reading = other.reading;
+        delimiter = other.delimiter;
+        crc = other.crc;
+        source_line = other.source_line;
+    }
 };
 
 const char* to_string(RecordClass cls);

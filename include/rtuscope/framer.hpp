@@ -35,8 +35,10 @@ struct FramerOptions {
 
 class Framer {
   public:
-    // The framer reuses the frame once the call returns: copy what is to be kept.
-    using Emit = std::function<void(const Frame&)>;
+    // The frame is the framer's, reused once the call returns. A receiver keeps it by
+    // copying it or by swapping it with a frame of its own, whose buffers the framer then
+    // reuses (it sets every field of the next frame).
+    using Emit = std::function<void(Frame&)>;
 
     Framer(const FramerOptions& options, Emit emit);
 

@@ -61,7 +61,9 @@ class Transactions : public AnswerExpectation {
 
     Transactions(TransactionOptions options, Emit emit);
 
-    void push(const Frame& frame);
+    // Takes the frame's contents, leaving an earlier record's frame in their place (a
+    // swap: the framer's frame and the records' reuse each other's buffers, no copy).
+    void push(Frame& frame);
     // Live input: the time is `now` and nothing came; a request whose timeout has passed
     // is given up on now rather than when the next frame arrives.
     void tick(Nanos now);
