@@ -5,12 +5,9 @@
 #include <array>
 #include <cstdint>
 #include <span>
+#include <string_view>
 
 namespace rtuscope {
-
-std::uint16_t crc16_modbus(std::span<const std::uint8_t> bytes);
-// Continues a CRC over more bytes: crc16_modbus(a + b) == crc16_modbus_update(crc16_modbus(a), b).
-std::uint16_t crc16_modbus_update(std::uint16_t crc, std::span<const std::uint8_t> bytes);
 
 namespace detail {
 // Slicing-by-8 tables (see crc.cpp); [0] is the classic byte table.
@@ -27,6 +24,45 @@ inline std::uint16_t crc16_modbus_byte(std::uint16_t crc, std::uint8_t byte) {
 inline std::uint16_t crc16_modbus_2(std::uint16_t crc, std::uint8_t first, std::uint8_t second) {
     return static_cast<std::uint16_t>(detail::kCrcTables[1][(crc ^ first) & 0xFFU] ^
                                       detail::kCrcTables[0][((crc >> 8) ^ second) & 0xFFU]);
+}
+
+// Continues a CRC over more bytes: crc16_modbus(a + b) == crc16_modbus_update(crc16_modbus(a), b).
+// Inline: frames are short, and called for each of a position's readings the call and
+// the loop's set-up cost as much as the bytes.
+inline std::uint16_t crc16_modbus_update(std::uint16_t crc, std::span<const std::uint8_t> bytes) {
+    const auto& tables = detail::kCrcTables;
+    const std::uint8_t* p = bytes.data();
+    std::size_t n = bytes.size();
+    while (n >= 8) {
+        // The 16-bit CRC only overlaps the first two of the eight bytes.
+        const auto b0 = static_cast<std::uint8_t>(p[0] ^ (crc & 0xFFU));
+        const auto b1 = static_cast<std::uint8_t>(p[1] ^ (crc >> 8));
+        crc = static_cast<std::uint16_t>(tables[7][b0] ^ tables[6][b1] ^ tables[5][p[2]] ^
+                                         tables[4][p[3]] ^ tables[3][p[4]] ^ tables[2][p[5]] ^
+                                         tables[1][p[6]] ^ tables[0][p[7]]);
+        p += 8;
+        n -= 8;
+    }
+    // Frames are short: most of one is this tail, so it too goes in steps of 4 and 2.
+    if (n >= 4) {
+        const auto b0 = static_cast<std::uint8_t>(p[0] ^ (crc & 0xFFU));
+        const auto b1 = static_cast<std::uint8_t>(p[1] ^ (crc >> 8));
+        crc = static_cast<std::uint16_t>(tables[3][b0] ^ tables[2][b1] ^ tables[1][p[2]] ^
+                                         tables[0][p[3]]);
+        p += 4;
+        n -= 4;
+    }
+    if (n >= 2) {
+        crc = crc16_modbus_2(crc, p[0], p[1]);
+        p += 2;
+        n -= 2;
+    }
+    if (n == 1) crc = crc16_modbus_byte(crc, *p);
+    return crc;
+}
+
+inline std::uint16_t crc16_modbus(std::span<const std::uint8_t> bytes) {
+    return crc16_modbus_update(0xFFFF, bytes);
 }
 
 enum class CrcStatus : std::uint8_t {
@@ -72,6 +108,6 @@ inline CrcCheck check_crc(std::span<const std::uint8_t> frame) {
     return crc_check_of(frame, crc16_modbus(frame.first(frame.size() - 2)));
 }
 
-const char* to_string(CrcStatus status);
+std::string_view to_string(CrcStatus status);
 
 }  // namespace rtuscope
