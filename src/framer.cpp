@@ -156,6 +156,7 @@ void Framer::push(const Chunk& chunk) {
 
     Piece piece;
     piece.first = base_ + bytes_.size();
+    piece.end = piece.first + chunk.bytes.size();
     piece.first_start = first_start;
     if (has_time(chunk.time)) {
         piece.step = (chunk.time - first_start) / n;
@@ -205,11 +206,6 @@ const Framer::Piece& Framer::find_piece(std::size_t at) const {
     return pieces_[i];
 }
 
-std::uint64_t Framer::piece_end(const Piece& piece) const {
-    const auto next = static_cast<std::size_t>(&piece - pieces_.data()) + 1;
-    return next < pieces_.size() ? pieces_[next].first : base_ + bytes_.size();
-}
-
 Nanos Framer::byte_end(std::size_t at) const {
     return byte_end(piece_of(at), at);
 }
@@ -223,7 +219,7 @@ Nanos Framer::byte_end(const Piece& p, std::size_t at) const {
     // decode, a 32-bit one is several times cheaper.
     const auto i = static_cast<Nanos>(base_ + at - p.first);
     if (i == 0) return p.first_start + p.step;
-    const auto n = static_cast<Nanos>(piece_end(p) - p.first);
+    const auto n = static_cast<Nanos>(p.end - p.first);
     if (i + 1 == n) return p.time;
     const Nanos part = p.step_remainder * (i + 1);
     const Nanos extra =
@@ -652,7 +648,7 @@ void Framer::emit(std::size_t at, std::size_t length, RecordClass cls, Reading r
     const Nanos first_end = byte_end(piece, at);
     frame.start = has_time(first_end) ? first_end - char_time_ : kNoTime;
     // Most frames lie within one chunk, whose piece is at hand.
-    const bool within_piece = base_ + at + length <= piece_end(piece);
+    const bool within_piece = base_ + at + length <= piece.end;
     frame.end = within_piece ? byte_end(piece, at + length - 1) : byte_end(at + length - 1);
     const Nanos gap = gap_at(piece, at);
     frame.silence_before = is_measured(gap) ? gap : kNoTime;

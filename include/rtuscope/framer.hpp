@@ -101,6 +101,7 @@ class Framer {
     // with seven per-byte arrays the bookkeeping cost more than the framing.
     struct Piece {
         std::uint64_t first = 0;      // stream index of its first byte (base_ + buffer index)
+        std::uint64_t end = 0;        // stream index just past its last byte
         Nanos first_start = kNoTime;  // its first byte's estimated start
         // (time - first_start) / bytes and its remainder: see byte_end.
         Nanos step = 0;
@@ -116,14 +117,12 @@ class Framer {
     [[nodiscard]] const Piece& piece_of(std::size_t at) const {
         const std::uint64_t index = base_ + at;
         const std::size_t i = piece_hint_;
-        if (i < pieces_.size() && pieces_[i].first <= index &&
-            (i + 1 == pieces_.size() || pieces_[i + 1].first > index)) {
+        if (i < pieces_.size() && pieces_[i].first <= index && index < pieces_[i].end) {
             return pieces_[i];
         }
         return find_piece(at);
     }
     [[nodiscard]] const Piece& find_piece(std::size_t at) const;
-    [[nodiscard]] std::uint64_t piece_end(const Piece& piece) const;
     [[nodiscard]] Nanos byte_end(std::size_t at) const;
     [[nodiscard]] Nanos byte_end(const Piece& piece, std::size_t at) const;  // `at` in `piece`
     // `first`: the piece byte `at` came in.
