@@ -6,7 +6,7 @@
 
 namespace rtuscope {
 
-const char* to_string(Kind kind) {
+std::string_view to_string(Kind kind) {
     switch (kind) {
         case Kind::request:
             return "request";

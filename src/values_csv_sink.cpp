@@ -29,9 +29,11 @@ class ValuesCsvSink final : public RecordSink {
             std::string line = fmt::format("{},{},{},0x{:04X},", seconds_text(r.frame.start),
                                            r.frame.slave(), csv_field(r.profile->name), v.address);
             line += csv_field(v.name) + ',' + csv_field(v.value) + ',' + csv_field(v.unit) + ',' +
-                    csv_field(v.raw) + ',' + std::to_string(r.number) + ',' + to_string(r.kind) +
-                    ',' + to_string(r.frame.crc.status) + ',' + csv_field(ids) + ',' +
-                    csv_field(texts) + '\n';
+                    csv_field(v.raw) + ',' + std::to_string(r.number) + ',';
+            line += to_string(r.kind);
+            line += ',';
+            line += to_string(r.frame.crc.status);
+            line += ',' + csv_field(ids) + ',' + csv_field(texts) + '\n';
             std::fwrite(line.data(), 1, line.size(), out_);
         }
     }

@@ -29,7 +29,7 @@ enum class Kind : std::uint8_t {
     noise,
 };
 
-const char* to_string(Kind kind);
+std::string_view to_string(Kind kind);
 
 struct Record {
     std::uint64_t number = 0;  // 1-based, stream order
