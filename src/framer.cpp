@@ -222,6 +222,9 @@ Nanos Framer::byte_end(const Piece& p, std::size_t at) const {
     const auto n = static_cast<Nanos>(p.end - p.first);
     if (i + 1 == n) return p.time;
     const Nanos part = p.step_remainder * (i + 1);
+    // A chunk placed back to back before its time spans exactly n characters: no
+    // remainder, no division (most chunks of a capture).
+    if (part == 0) return p.first_start + p.step * (i + 1);
     const Nanos extra =
         n < (1 << 15) ? static_cast<std::int32_t>(part) / static_cast<std::int32_t>(n) : part / n;
     return p.first_start + p.step * (i + 1) + extra;
