@@ -18,6 +18,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <array>
 #include <cstddef>
 #include <limits>
 #include <optional>
@@ -78,11 +79,35 @@ std::string hex_bytes(Bytes b) {
     return s;
 }
 
+// Appends what `write` writes (at most `bound` characters) in one go: a summary's fields
+// written to the stack and appended once cost one capacity check and one copy, where an
+// append per field cost that each time.
+template <typename Write>
+void append_written(std::string& s, std::size_t bound, Write write) {
+    constexpr std::size_t kStackChars = 192;
+    if (bound > kStackChars) {
+        append_with(s, bound, write);
+        return;
+    }
+    char text[kStackChars];
+    const char* const end = write(text);
+    s.append(text, static_cast<std::size_t>(end - text));
+}
+
 // "1 register", "2 registers"
+char* write_counted(char* p, std::size_t n, std::string_view one, std::string_view many) {
+    p = write_uint(p, n);
+    *p++ = ' ';
+    return write_text(p, n == 1 ? one : many);
+}
+
+std::size_t counted_bound(std::string_view one, std::string_view many) {
+    return kMaxUintChars + 1 + std::max(one.size(), many.size());
+}
+
 void append_counted(std::string& s, std::size_t n, std::string_view one, std::string_view many) {
-    append_uint(s, n);
-    s += ' ';
-    s += n == 1 ? one : many;
+    append_written(s, counted_bound(one, many),
+                   [&](char* p) { return write_counted(p, n, one, many); });
 }
 
 std::string counted(std::size_t n, std::string_view one, std::string_view many) {
@@ -102,16 +127,22 @@ char* write_more(char* p, std::size_t more) {
 }
 constexpr std::size_t kMaxMoreChars = kMaxUintChars + 14;
 
-void append_word_list(std::string& s, std::span<const std::uint16_t> values) {
+constexpr std::size_t kMaxWordListChars = 7 * kListedWords + kMaxMoreChars;
+constexpr std::size_t kMaxBitListChars = kListedBits + kMaxMoreChars;
+
+char* write_word_list(char* p, std::span<const std::uint16_t> values) {
     const std::size_t listed = std::min(values.size(), kListedWords);
-    append_with(s, 7 * listed + kMaxMoreChars, [&](char* p) {
-        for (std::size_t i = 0; i < listed; ++i) {
-            if (i != 0) *p++ = ' ';
-            p = write_hex4(p, values[i]);
-        }
-        if (values.size() > listed) p = write_more(p, values.size() - listed);
-        return p;
-    });
+    if (listed != 0) p = write_hex4(p, values[0]);
+    for (std::size_t i = 1; i < listed; ++i) {
+        *p++ = ' ';
+        p = write_hex4(p, values[i]);
+    }
+    if (values.size() > listed) p = write_more(p, values.size() - listed);
+    return p;
+}
+
+void append_word_list(std::string& s, std::span<const std::uint16_t> values) {
+    append_written(s, kMaxWordListChars, [&](char* p) { return write_word_list(p, values); });
 }
 
 std::string word_list(std::span<const std::uint16_t> values) {
@@ -120,31 +151,31 @@ std::string word_list(std::span<const std::uint16_t> values) {
     return s;
 }
 
-void append_bit_list(std::string& s, std::span<const std::uint16_t> bits) {
+char* write_bit_list(char* p, std::span<const std::uint16_t> bits) {
     const std::size_t listed = std::min(bits.size(), kListedBits);
-    append_with(s, listed + kMaxMoreChars, [&](char* p) {
-        for (std::size_t i = 0; i < listed; ++i) *p++ = bits[i] != 0 ? '1' : '0';
-        if (bits.size() > listed) p = write_more(p, bits.size() - listed);
-        return p;
-    });
+    for (std::size_t i = 0; i < listed; ++i) *p++ = bits[i] != 0 ? '1' : '0';
+    if (bits.size() > listed) p = write_more(p, bits.size() - listed);
+    return p;
 }
 
 // ": 0x1818 0x0000" or ": 1011", nothing for no values.
+constexpr std::size_t kMaxValuesChars = 2 + std::max(kMaxWordListChars, kMaxBitListChars);
+char* write_values(char* p, std::span<const std::uint16_t> values, bool as_bits) {
+    if (values.empty()) return p;
+    p = write_text(p, ": ");
+    return as_bits ? write_bit_list(p, values) : write_word_list(p, values);
+}
+
 void append_values(std::string& s, std::span<const std::uint16_t> values, bool as_bits) {
-    if (values.empty()) return;
-    s += ": ";
-    if (as_bits) {
-        append_bit_list(s, values);
-    } else {
-        append_word_list(s, values);
-    }
+    append_written(s, kMaxValuesChars, [&](char* p) { return write_values(p, values, as_bits); });
 }
 
 // "2 registers: 0x1818 0x0000", "0 registers"
 void append_listed(std::string& s, std::span<const std::uint16_t> values, std::string_view one,
                    std::string_view many, bool as_bits) {
-    append_counted(s, values.size(), one, many);
-    append_values(s, values, as_bits);
+    append_written(s, counted_bound(one, many) + kMaxValuesChars, [&](char* p) {
+        return write_values(write_counted(p, values.size(), one, many), values, as_bits);
+    });
 }
 
 std::string listed(std::span<const std::uint16_t> values, std::string_view one,
@@ -154,10 +185,14 @@ std::string listed(std::span<const std::uint16_t> values, std::string_view one,
     return s;
 }
 
+// Sized once and filled through a pointer: a push_back per value checked the capacity
+// every time.
 void words_of(Bytes b, std::vector<std::uint16_t>& v) {
-    v.clear();
-    for (std::size_t i = 0; i + 1 < b.size(); i += 2) {
-        v.push_back(static_cast<std::uint16_t>((b[i] << 8) | b[i + 1]));
+    const std::size_t n = b.size() / 2;
+    v.resize(n);
+    std::uint16_t* const out = v.data();
+    for (std::size_t i = 0; i < n; ++i) {
+        out[i] = static_cast<std::uint16_t>((b[2 * i] << 8) | b[2 * i + 1]);
     }
 }
 
@@ -170,9 +205,14 @@ std::vector<std::uint16_t> words_of(Bytes b) {
 // Bits in address order: the LSB of the first byte is the first address (6.1).
 void bits_of(Bytes b, std::size_t count, std::vector<std::uint16_t>& v) {
     count = std::min(count, b.size() * 8);
-    v.clear();
-    for (std::size_t i = 0; i < count; ++i) {
-        v.push_back(static_cast<std::uint16_t>((b[i / 8] >> (i % 8)) & 1U));
+    v.resize(count);
+    std::uint16_t* const out = v.data();
+    for (std::size_t first = 0; first < count; first += 8) {
+        const unsigned byte = b[first / 8];
+        const std::size_t n = std::min<std::size_t>(8, count - first);
+        for (std::size_t bit = 0; bit < n; ++bit) {
+            out[first + bit] = static_cast<std::uint16_t>((byte >> bit) & 1U);
+        }
     }
 }
 
@@ -201,6 +241,62 @@ std::string join(const std::vector<std::string>& parts, std::string_view sep) {
     }
     return s;
 }
+
+constexpr const char* standard_name(std::uint8_t function) {
+    const auto fc = static_cast<std::uint8_t>(function & 0x7FU);
+    switch (fc) {
+        case 0x01:
+            return "Read Coils";
+        case 0x02:
+            return "Read Discrete Inputs";
+        case 0x03:
+            return "Read Holding Registers";
+        case 0x04:
+            return "Read Input Registers";
+        case 0x05:
+            return "Write Single Coil";
+        case 0x06:
+            return "Write Single Register";
+        case 0x07:
+            return "Read Exception Status";
+        case 0x08:
+            return "Diagnostics";
+        case 0x0B:
+            return "Get Comm Event Counter";
+        case 0x0C:
+            return "Get Comm Event Log";
+        case 0x0F:
+            return "Write Multiple Coils";
+        case 0x10:
+            return "Write Multiple Registers";
+        case 0x11:
+            return "Report Server ID";
+        case 0x14:
+            return "Read File Record";
+        case 0x15:
+            return "Write File Record";
+        case 0x16:
+            return "Mask Write Register";
+        case 0x17:
+            return "Read/Write Multiple Registers";
+        case 0x18:
+            return "Read FIFO Queue";
+        case 0x2B:
+            return "Encapsulated Interface Transport";
+        default:
+            return nullptr;
+    }
+}
+
+// Every record is named: the names' lengths are counted at compile time, not per record.
+constexpr auto kFunctionNames = [] {
+    std::array<std::string_view, 0x80> names{};
+    for (std::size_t fc = 0; fc < names.size(); ++fc) {
+        const char* name = standard_name(static_cast<std::uint8_t>(fc));
+        if (name != nullptr) names[fc] = name;
+    }
+    return names;
+}();
 
 // ---------------------------------------------------------------------------------
 // Decoding state and checks shared by the function codes
@@ -275,7 +371,11 @@ struct Decoder {
 
     // A data block for the profile layer, reusing the buffers of an earlier record's.
     DataBlock& add_block(DataTable table, std::uint16_t start, bool write) {
-        if (out.spare_blocks.empty()) {
+        // Usually the record's one block is the one spare: the lists change places, which
+        // moves no block.
+        if (out.blocks.empty() && out.spare_blocks.size() == 1) {
+            out.blocks.swap(out.spare_blocks);
+        } else if (out.spare_blocks.empty()) {
             out.blocks.emplace_back();
         } else {
             out.blocks.push_back(std::move(out.spare_blocks.back()));
@@ -292,6 +392,10 @@ struct Decoder {
 
     // Takes back the block just added (it turned out to carry nothing to explain).
     void drop_last_block() {
+        if (out.blocks.size() == 1 && out.spare_blocks.empty()) {
+            out.blocks.swap(out.spare_blocks);
+            return;
+        }
         out.spare_blocks.push_back(std::move(out.blocks.back()));
         out.blocks.pop_back();
     }
@@ -315,13 +419,19 @@ std::optional<Range> asked_range(const Decoder& d) {
 }
 
 // "0x0013 x10" from whatever of the two fields is present.
+constexpr std::size_t kMaxRangeChars = 6 + 2 + 5;
+char* write_range(char* p, std::optional<std::uint16_t> start, std::optional<std::uint16_t> qty) {
+    if (start) p = write_hex4(p, *start);
+    if (qty) {
+        p = write_text(p, start ? " x" : "x");
+        p = write_uint(p, *qty);
+    }
+    return p;
+}
+
 void append_range(std::string& s, std::optional<std::uint16_t> start,
                   std::optional<std::uint16_t> qty) {
-    if (start) append_hex4(s, *start);
-    if (qty) {
-        s += start ? " x" : "x";
-        append_uint(s, *qty);
-    }
+    append_written(s, kMaxRangeChars, [&](char* p) { return write_range(p, start, qty); });
 }
 
 std::string range_text(std::optional<std::uint16_t> start, std::optional<std::uint16_t> qty) {
@@ -420,17 +530,20 @@ void read_registers_response(Decoder& d, DataTable table) {
 void append_single_coil(std::string& s, Bytes b) {
     const auto address = u16_at(b, 0);
     const auto value = u16_at(b, 2);
-    if (address) append_hex4(s, *address);
-    if (value) {
-        if (address) s += ' ';
-        if (*value == kCoilOn) {
-            s += "ON";
-        } else if (*value == kCoilOff) {
-            s += "OFF";
-        } else {
-            append_hex4(s, *value);
+    append_written(s, 6 + 1 + 6, [&](char* p) {
+        if (address) p = write_hex4(p, *address);
+        if (value) {
+            if (address) *p++ = ' ';
+            if (*value == kCoilOn) {
+                p = write_text(p, "ON");
+            } else if (*value == kCoilOff) {
+                p = write_text(p, "OFF");
+            } else {
+                p = write_hex4(p, *value);
+            }
         }
-    }
+        return p;
+    });
 }
 
 std::string single_coil_text(Bytes b) {
@@ -464,14 +577,17 @@ void write_single_coil(Decoder& d) {
 void append_single_register(std::string& s, Bytes b) {
     const auto address = u16_at(b, 0);
     const auto value = u16_at(b, 2);
-    if (address) append_hex4(s, *address);
-    if (value) {
-        s += address ? " = " : "= ";
-        append_hex4(s, *value);
-        s += " (";
-        append_uint(s, *value);
-        s += ')';
-    }
+    append_written(s, 6 + 3 + 6 + 2 + 5 + 1, [&](char* p) {
+        if (address) p = write_hex4(p, *address);
+        if (value) {
+            p = write_text(p, address ? " = " : "= ");
+            p = write_hex4(p, *value);
+            p = write_text(p, " (");
+            p = write_uint(p, *value);
+            *p++ = ')';
+        }
+        return p;
+    });
 }
 
 std::string single_register_text(Bytes b) {
@@ -1212,8 +1328,13 @@ void exception_response(Decoder& d) {
     d.expect_size(2);
     d.out.exception_code = *code;
     const char* name = exception_name(*code);
-    fmt::format_to(std::back_inserter(d.out.summary), "exception {:02X} {}", *code,
-                   name ? name : "unknown exception code");
+    const std::string_view text = name ? name : "unknown exception code";
+    append_written(d.out.summary, 10 + 2 + 1 + text.size(), [&](char* p) {
+        p = write_text(p, "exception ");
+        p = write_hex(p, std::span(&*code, 1), false);
+        *p++ = ' ';
+        return write_text(p, text);
+    });
     if (!name) {
         d.note(note_id::illegal_value,
                fmt::format("exception code 0x{:02X} is not defined by the specification", *code));
@@ -1299,19 +1420,36 @@ void decode_function(Decoder& d) {
 
 }  // namespace
 
+namespace {
+
+// Kept out of clear(), which runs twice for every record and seldom gets here: inlined,
+// they made every call save and restore registers for them.
+[[gnu::noinline]] void clear_notes(Notes& notes) {
+    notes.clear();
+}
+
+[[gnu::noinline]] void keep_blocks_as_spares(DecodedPdu& pdu) {
+    for (DataBlock& block : pdu.blocks) pdu.spare_blocks.push_back(std::move(block));
+    pdu.blocks.clear();
+}
+
+}  // namespace
+
 void DecodedPdu::clear() {
     function_name.clear();
     summary.clear();
     exception = false;
     exception_code = 0;
-    notes.clear();
+    if (!notes.empty()) clear_notes(notes);
     // Usually the spares are empty (add_block took them): then the lists change places.
+    // A record is cleared twice (when it is reused, and when it is decoded into): the
+    // second time there is nothing to keep.
+    if (blocks.empty()) return;
     if (spare_blocks.empty()) {
         spare_blocks.swap(blocks);
         return;
     }
-    for (DataBlock& block : blocks) spare_blocks.push_back(std::move(block));
-    blocks.clear();
+    keep_blocks_as_spares(*this);
 }
 
 DecodedPdu decode_pdu(std::span<const std::uint8_t> pdu, Role role,
@@ -1358,58 +1496,20 @@ std::string function_name(std::uint8_t function) {
 }
 
 void append_function_name(std::string& out, std::uint8_t function) {
-    const char* name = standard_function_name(function);
-    if (name != nullptr) {
-        out += name;
-    } else {
-        fmt::format_to(std::back_inserter(out), "Function 0x{:02X}", function & 0x7FU);
+    const std::string_view name = kFunctionNames[function & 0x7FU];
+    if (!name.empty()) {
+        out.append(name.data(), name.size());
+        return;
     }
+    const auto fc = static_cast<std::uint8_t>(function & 0x7FU);
+    append_written(out, 11 + 2, [&](char* p) {
+        p = write_text(p, "Function 0x");
+        return write_hex(p, std::span(&fc, 1), false);
+    });
 }
 
 const char* standard_function_name(std::uint8_t function) {
-    const auto fc = static_cast<std::uint8_t>(function & 0x7FU);
-    switch (fc) {
-        case 0x01:
-            return "Read Coils";
-        case 0x02:
-            return "Read Discrete Inputs";
-        case 0x03:
-            return "Read Holding Registers";
-        case 0x04:
-            return "Read Input Registers";
-        case 0x05:
-            return "Write Single Coil";
-        case 0x06:
-            return "Write Single Register";
-        case 0x07:
-            return "Read Exception Status";
-        case 0x08:
-            return "Diagnostics";
-        case 0x0B:
-            return "Get Comm Event Counter";
-        case 0x0C:
-            return "Get Comm Event Log";
-        case 0x0F:
-            return "Write Multiple Coils";
-        case 0x10:
-            return "Write Multiple Registers";
-        case 0x11:
-            return "Report Server ID";
-        case 0x14:
-            return "Read File Record";
-        case 0x15:
-            return "Write File Record";
-        case 0x16:
-            return "Mask Write Register";
-        case 0x17:
-            return "Read/Write Multiple Registers";
-        case 0x18:
-            return "Read FIFO Queue";
-        case 0x2B:
-            return "Encapsulated Interface Transport";
-        default:
-            return nullptr;
-    }
+    return standard_name(function);
 }
 
 const char* exception_name(std::uint8_t code) {

@@ -49,21 +49,23 @@ inline char* write_text(char* p, std::string_view text) {
     return p + text.size();
 }
 
+// A byte's two hex digits, at 2 * byte: both digits of a byte come from one table entry
+// (every frame's bytes and every register in a summary are written so).
+inline constexpr auto kHexPairs = [] {
+    constexpr char kDigits[] = "0123456789ABCDEF";
+    std::array<char, 512> pairs{};
+    for (std::size_t b = 0; b < 256; ++b) {
+        pairs[2 * b] = kDigits[b >> 4];
+        pairs[2 * b + 1] = kDigits[b & 0xFU];
+    }
+    return pairs;
+}();
+
 // Two digits per byte, and a space between bytes when `spaced`: at most 3 per byte.
-// Both digits of a byte come from one table entry: every frame's bytes are written so.
 inline char* write_hex(char* p, std::span<const std::uint8_t> bytes, bool spaced) {
-    static constexpr auto kPairs = [] {
-        constexpr char kDigits[] = "0123456789ABCDEF";
-        std::array<char, 512> pairs{};
-        for (std::size_t b = 0; b < 256; ++b) {
-            pairs[2 * b] = kDigits[b >> 4];
-            pairs[2 * b + 1] = kDigits[b & 0xFU];
-        }
-        return pairs;
-    }();
     for (std::size_t i = 0; i < bytes.size(); ++i) {
         if (spaced && i > 0) *p++ = ' ';
-        std::memcpy(p, &kPairs[2 * std::size_t{bytes[i]}], 2);
+        std::memcpy(p, &kHexPairs[2 * std::size_t{bytes[i]}], 2);
         p += 2;
     }
     return p;
@@ -203,13 +205,10 @@ inline void append_padded(std::string& out, std::uint64_t value, std::size_t wid
 
 // "0x1A2B": 6 characters.
 inline char* write_hex4(char* p, std::uint16_t value) {
-    static constexpr char kDigits[] = "0123456789ABCDEF";
     p[0] = '0';
     p[1] = 'x';
-    p[2] = kDigits[value >> 12];
-    p[3] = kDigits[(value >> 8) & 0xFU];
-    p[4] = kDigits[(value >> 4) & 0xFU];
-    p[5] = kDigits[value & 0xFU];
+    std::memcpy(p + 2, &kHexPairs[2 * std::size_t{static_cast<std::uint8_t>(value >> 8U)}], 2);
+    std::memcpy(p + 4, &kHexPairs[2 * std::size_t{static_cast<std::uint8_t>(value)}], 2);
     return p + 6;
 }
 
