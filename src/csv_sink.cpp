@@ -17,15 +17,24 @@ class CsvSink final : public RecordSink {
 
     void record(const Record& r) override {
         const bool framed = r.kind != Kind::noise;
-        summary_.clear();
-        append_summary(summary_, r);
+        // A frame's summary is its function's name and what it carries, written as one
+        // field straight from the two; noise says how long it is.
+        std::string_view name = r.decoded.function_name;
+        std::string_view carried = r.decoded.summary;
+        if (!framed) {
+            summary_.clear();
+            append_summary(summary_, r);
+            name = summary_;
+            carried = {};
+        }
         flags_.build(r, " ", "; ", [](std::string& out, std::string_view item) { out += item; });
         // Numbers, time, kind, CRC, latency and commas fit in kFixedChars; quoting at most
         // doubles a field and adds two quotes.
         constexpr std::size_t kFixedChars =
             4 * kMaxUintChars + kMaxSecondsChars + kMaxMillisChars + 50;
-        const std::size_t bound = kFixedChars + 2 * r.frame.bytes.size() + 2 * summary_.size() +
-                                  2 * flags_.ids.size() + 2 * flags_.texts.size() + 6;
+        const std::size_t bound = kFixedChars + 2 * r.frame.bytes.size() + 2 * name.size() +
+                                  2 * carried.size() + 2 + 2 * flags_.ids.size() +
+                                  2 * flags_.texts.size() + 6;
         append_with(out_.text(), bound, [&](char* p) {
             p = write_uint(p, r.number);
             *p++ = ',';
@@ -43,7 +52,7 @@ class CsvSink final : public RecordSink {
             *p++ = ',';
             if (has_time(r.latency)) p = write_millis(p, r.latency, 3);
             *p++ = ',';
-            p = write_csv_field(p, summary_);
+            p = write_csv_field(p, name, carried);
             *p++ = ',';
             p = write_hex(p, r.frame.bytes, false);
             *p++ = ',';
@@ -68,7 +77,7 @@ class CsvSink final : public RecordSink {
   private:
     BlockOutput out_;
     // Fields that may need quoting, built before they are written; all reused.
-    std::string summary_;
+    std::string summary_;  // noise only
     FlagColumns flags_;
 };
 

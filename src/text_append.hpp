@@ -130,37 +130,70 @@ inline bool holds_csv_special(const char* sixteen) {
     return (halves[0] | halves[1]) != 0;
 }
 
-// Writes `text` with its quotes doubled, in quotes.
-inline char* write_quoted_csv_field(char* p, std::string_view text) {
-    *p++ = '"';
+// Writes `text` with its quotes doubled (the inside of a quoted field).
+inline char* write_doubling_quotes(char* p, std::string_view text) {
     for (const char c : text) {
         if (c == '"') *p++ = '"';
         *p++ = c;
     }
-    *p++ = '"';
     return p;
 }
 
-// An RFC 4180 field, quoted when it holds a comma, a quote or a line break; at most
-// 2 * size + 2 characters. Copied 16 characters a step while they are looked at: every CSV
-// row's summary goes through here, and a check per character cost more than the copy. The
-// last step overlaps the one before rather than going on one character at a time.
-inline char* write_csv_field(char* p, std::string_view text) {
+// Copies `text` to `p` and moves `p` past it, unless it holds a character that needs
+// quotes: then false, with what was copied left for the caller to overwrite. Copied 16
+// characters a step while they are looked at: every CSV row's summary goes through here,
+// and a check per character cost more than the copy. The last step overlaps the one
+// before rather than going on one character at a time.
+inline bool copy_if_unquoted(char*& p, std::string_view text) {
     const char* const s = text.data();
     const std::size_t n = text.size();
     if (n < 16) {
         for (std::size_t i = 0; i < n; ++i) {
-            if (is_csv_special(s[i])) return write_quoted_csv_field(p, text);
+            if (is_csv_special(s[i])) return false;
             p[i] = s[i];
         }
-        return p + n;
+        p += n;
+        return true;
     }
     for (std::size_t i = 0;; i += 16) {
         if (i + 16 > n) i = n - 16;
-        if (holds_csv_special(s + i)) return write_quoted_csv_field(p, text);
+        if (holds_csv_special(s + i)) return false;
         std::memcpy(p + i, s + i, 16);
-        if (i + 16 == n) return p + n;
+        if (i + 16 == n) {
+            p += n;
+            return true;
+        }
     }
+}
+
+// An RFC 4180 field, quoted when it holds a comma, a quote or a line break; at most
+// 2 * size + 2 characters.
+inline char* write_csv_field(char* p, std::string_view text) {
+    char* end = p;
+    if (copy_if_unquoted(end, text)) return end;
+    *p++ = '"';
+    p = write_doubling_quotes(p, text);
+    *p++ = '"';
+    return p;
+}
+
+// The field `first` + " " + `second` (just `first` when `second` is empty), as
+// write_csv_field would write the joined text, without joining it first.
+inline char* write_csv_field(char* p, std::string_view first, std::string_view second) {
+    char* end = p;
+    if (copy_if_unquoted(end, first)) {
+        if (second.empty()) return end;
+        *end++ = ' ';
+        if (copy_if_unquoted(end, second)) return end;
+    }
+    *p++ = '"';
+    p = write_doubling_quotes(p, first);
+    if (!second.empty()) {
+        *p++ = ' ';
+        p = write_doubling_quotes(p, second);
+    }
+    *p++ = '"';
+    return p;
 }
 
 // Appends through one of the writers above: room for `bound` characters, then trimmed.

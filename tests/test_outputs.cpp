@@ -222,6 +222,11 @@ TEST(Csv, QuotesExactlyTheFieldsThatHoldACommaAQuoteOrALineBreak) {
         return quoted + "\"";
     };
 
+    // A frame's summary column is its function's name, a space and what it carries,
+    // written from the two without joining them: either may hold what needs quotes.
+    const std::string kNames[] = {"",    "Read Coils",         "a,b",
+                                  "q\"", std::string(20, 'x'), std::string(20, 'y') + "\n"};
+
     const std::string csv = sink_output(make_csv_sink, [&](RecordSink& sink) {
         Record r;
         r.kind = Kind::noise;
@@ -229,12 +234,27 @@ TEST(Csv, QuotesExactlyTheFieldsThatHoldACommaAQuoteOrALineBreak) {
             r.notes = {Note{"test.note", text}};  // the notes column is the note's text
             sink.record(r);
         }
+        r.kind = Kind::unknown;
+        r.notes.clear();
+        for (const std::string& name : kNames) {
+            for (const std::string& text : texts) {
+                r.decoded.function_name = name;
+                r.decoded.summary = text;
+                sink.record(r);
+            }
+        }
     });
 
     std::string expected = csv.substr(0, csv.find('\n') + 1);
     for (const std::string& text : texts) {
         // A noise record's summary has a comma of its own.
         expected += "0,,,,noise,,,,\"noise, 0 bytes\",,test.note," + rfc4180(text) + "\n";
+    }
+    for (const std::string& name : kNames) {
+        for (const std::string& text : texts) {
+            expected +=
+                "0,,,,unknown,,,," + rfc4180(text.empty() ? name : name + " " + text) + ",,,\n";
+        }
     }
     ASSERT_EQ(csv.size(), expected.size());
     EXPECT_TRUE(csv == expected);  // too long to print: the first difference follows
