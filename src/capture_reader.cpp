@@ -136,29 +136,35 @@ TimeParse parse_seconds(std::string_view text, Nanos& out, std::size_t& length) 
 }
 
 // The byte two hex digits stand for, -1 if either is no hex digit; indexed by the two
-// characters as one 16-bit load sees them. One lookup per byte instead of two lookups,
-// a shift and an or: the hex bytes are most of a capture's text. 128 KiB, of which a
-// capture touches a few kilobytes.
-constexpr std::array<std::int16_t, 65536> kHexPairValues = [] {
-    std::array<std::int16_t, 65536> table{};
-    for (int first = 0; first < 256; ++first) {
-        for (int second = 0; second < 256; ++second) {
-            const int hi = kHexDigitValues[static_cast<std::size_t>(first)];
-            const int lo = kHexDigitValues[static_cast<std::size_t>(second)];
-            const int index = std::endian::native == std::endian::little ? first | second << 8
-                                                                         : first << 8 | second;
-            table[static_cast<std::size_t>(index)] =
+// characters' low seven bits (a character with the eighth bit set is no hex digit). One
+// lookup per byte instead of two lookups, a shift and an or: the hex bytes are most of a
+// capture's text. 32 KiB, of which a capture touches a few kilobytes.
+constexpr auto kHexPairValues = [] {
+    std::array<std::int16_t, 128 * 128> table{};
+    for (std::size_t first = 0; first < 128; ++first) {
+        for (std::size_t second = 0; second < 128; ++second) {
+            const int hi = kHexDigitValues[first];
+            const int lo = kHexDigitValues[second];
+            table[first | second << 7] =
                 static_cast<std::int16_t>(hi < 0 || lo < 0 ? -1 : hi << 4 | lo);
         }
     }
     return table;
 }();
 
+// As hex_pair, for two characters known to be below 0x80.
+std::int64_t ascii_hex_pair(const char* p) {
+    const auto first = static_cast<unsigned char>(p[0]) & 0x7FU;
+    const auto second = static_cast<unsigned char>(p[1]) & 0x7FU;
+    return kHexPairValues[first | std::size_t{second} << 7];
+}
+
 // The byte the two hex digits at `p` stand for, -1 if they are not two hex digits.
 std::int64_t hex_pair(const char* p) {
-    std::uint16_t pair = 0;
-    std::memcpy(&pair, p, sizeof pair);
-    return kHexPairValues[pair];
+    if (((static_cast<unsigned char>(p[0]) | static_cast<unsigned char>(p[1])) & 0x80U) != 0) {
+        return -1;
+    }
+    return ascii_hex_pair(p);
 }
 
 // Eight bytes of text as one word, for checking several separators at once.
@@ -189,8 +195,10 @@ constexpr std::uint64_t kSeparators2 = separator_mask(".x..x..x");
 // Four bytes "XX XX XX XX" at `p` with a separator after each, as a little-endian
 // number; negative if any is not two hex digits (the shift of a -1 sets every bit above
 // it).
+// The caller has checked that none of the characters is 0x80 or above.
 std::int64_t four_hex_bytes(const char* p) {
-    return hex_pair(p) | hex_pair(p + 3) << 8 | hex_pair(p + 6) << 16 | hex_pair(p + 9) << 24;
+    return ascii_hex_pair(p) | ascii_hex_pair(p + 3) << 8 | ascii_hex_pair(p + 6) << 16 |
+           ascii_hex_pair(p + 9) << 24;
 }
 
 class CaptureReader final : public ChunkSource {
@@ -407,6 +415,10 @@ class CaptureReader final : public ChunkSource {
         // digits. It takes over at the first byte these do not take (another separator,
         // a bad digit, the last byte), after the spaces it would have skipped.
         while (end - p >= 24) {
+            if (((load_word(p) | load_word(p + 8) | load_word(p + 16)) & 0x8080808080808080U) !=
+                0) {
+                break;
+            }
             const std::int64_t low = four_hex_bytes(p);
             const std::int64_t high = four_hex_bytes(p + 12);
             const std::uint64_t separators =
