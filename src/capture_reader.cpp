@@ -140,11 +140,11 @@ TimeParse parse_seconds(std::string_view text, Nanos& out, std::size_t& length) 
 // lookup per byte instead of two lookups, a shift and an or: the hex bytes are most of a
 // capture's text. 32 KiB, of which a capture touches a few kilobytes.
 constexpr auto kHexPairValues = [] {
-    std::array<std::int16_t, 128 * 128> table{};
+    std::array<std::int16_t, std::size_t{128} * 128> table{};
     for (std::size_t first = 0; first < 128; ++first) {
         for (std::size_t second = 0; second < 128; ++second) {
-            const int hi = kHexDigitValues[first];
-            const int lo = kHexDigitValues[second];
+            const int hi = hex_value(static_cast<char>(first));
+            const int lo = hex_value(static_cast<char>(second));
             table[first | second << 7] =
                 static_cast<std::int16_t>(hi < 0 || lo < 0 ? -1 : hi << 4 | lo);
         }

@@ -289,14 +289,16 @@ constexpr const char* standard_name(std::uint8_t function) {
 }
 
 // Every record is named: the names' lengths are counted at compile time, not per record.
-constexpr auto kFunctionNames = [] {
-    std::array<std::string_view, 0x80> names{};
-    for (std::size_t fc = 0; fc < names.size(); ++fc) {
+constexpr std::size_t kFunctionCodes = 128;
+constexpr std::array<std::string_view, kFunctionCodes> function_names() {
+    std::array<std::string_view, kFunctionCodes> names{};
+    for (std::size_t fc = 0; fc < kFunctionCodes; ++fc) {
         const char* name = standard_name(static_cast<std::uint8_t>(fc));
         if (name != nullptr) names[fc] = name;
     }
     return names;
-}();
+}
+constexpr auto kFunctionNames = function_names();
 
 // ---------------------------------------------------------------------------------
 // Decoding state and checks shared by the function codes

@@ -85,7 +85,7 @@ inline constexpr std::array<std::int8_t, 256> kHexDigitValues = [] {
     return table;
 }();
 
-inline int hex_value(char c) {
+constexpr int hex_value(char c) {
     return kHexDigitValues[static_cast<unsigned char>(c)];
 }
 
