@@ -115,19 +115,7 @@ FrameLength response_length(std::span<const std::uint8_t> head) {
 
 FrameLengths ProtocolRules::frame_lengths(std::span<const std::uint8_t> head) const {
     if (head.size() < 2) return {FrameLength::need(2), FrameLength::need(2)};
-    // The codes of nearly every frame on a real bus, first and without a second switch.
-    switch (head[1]) {
-        case 0x01:
-        case 0x02:
-        case 0x03:
-        case 0x04:
-            return {FrameLength::fixed_at(8), counted(head, 2)};
-        case 0x0F:
-        case 0x10:
-            return {counted(head, 6), FrameLength::fixed_at(8)};
-        default:
-            return {request_length(head), response_length(head)};
-    }
+    return {request_length(head), response_length(head)};
 }
 
 bool ProtocolRules::answer_is_echo(std::uint8_t /*slave*/, std::uint8_t function) const {
