@@ -319,18 +319,14 @@ Framer::Attempt Framer::attempt_at(std::size_t at, bool at_end) const {
     };
     bool searched = false;
     Attempt best;
-    auto followed_by_gap = [&](const Attempt& a) {
-        const std::size_t end = at + a.length;
-        return end == bytes_.size() ? at_end : gap_before(end);
-    };
     auto better = [&](const Attempt& a, const Attempt& b) {
         if ((a.crc.status == CrcStatus::ok) != (b.crc.status == CrcStatus::ok)) {
             return a.crc.status == CrcStatus::ok;
         }
         const bool a_answer = a.reading != Reading::request;
         if (a_answer != (b.reading != Reading::request)) return a_answer == prefers_response();
-        const bool a_gap = followed_by_gap(a);
-        if (a_gap != followed_by_gap(b)) return a_gap;
+        const bool a_gap = followed_by_gap(at + a.length, at_end);
+        if (a_gap != followed_by_gap(at + b.length, at_end)) return a_gap;
         return a.length < b.length;
     };
 
@@ -392,12 +388,18 @@ Framer::Attempt Framer::attempt_at(std::size_t at, bool at_end) const {
 
 Framer::Attempt Framer::with_delimiter(Attempt frame, std::size_t at, bool at_end) const {
     const std::size_t end = at + frame.length;
-    if (end == bytes_.size()) {
-        frame.delimiter = at_end ? Delimiter::gap : Delimiter::end_of_input;
+    if (followed_by_gap(end, at_end)) {
+        frame.delimiter = Delimiter::gap;
+    } else if (end == bytes_.size()) {
+        frame.delimiter = Delimiter::end_of_input;
     } else {
-        frame.delimiter = gap_before(end) ? Delimiter::gap : Delimiter::length_crc;
+        frame.delimiter = Delimiter::length_crc;
     }
     return frame;
+}
+
+bool Framer::followed_by_gap(std::size_t end, bool at_end) const {
+    return end == bytes_.size() ? at_end : gap_before(end);
 }
 
 Framer::Search Framer::search_length(std::size_t at, bool at_end, bool confirm) const {
@@ -659,7 +661,7 @@ void Framer::emit(std::size_t at, std::size_t length, RecordClass cls, Reading r
     if (frame.channel != channel) frame.channel = channel;
     frame.source_line = piece.line;
     // Noise and frames cut short come without a CRC check, so without a CRC note.
-    if (crc.status == CrcStatus::bad || crc.status == CrcStatus::swapped) add_crc_note(frame);
+    add_crc_note(frame);
     frame.notes.insert(frame.notes.end(), notes.begin(), notes.end());
     // Silences are measured only before a chunk's first byte: a frame in the middle of
     // one chunk has none to note.

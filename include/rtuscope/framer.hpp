@@ -76,6 +76,9 @@ class Framer {
     Attempt attempt_at(std::size_t at, bool at_end) const;
     // `frame` with what ends it: a silence, the input's end, or its length and CRC alone.
     [[nodiscard]] Attempt with_delimiter(Attempt frame, std::size_t at, bool at_end) const;
+    // Whether a frame ending at `end` is followed by a silence (or, at the end of the
+    // buffer, by the end of the input).
+    [[nodiscard]] bool followed_by_gap(std::size_t end, bool at_end) const;
     // The first byte after `after` with a gap (>= t3.5) before it, looking at most kMaxAdu
     // bytes ahead; past that, any index beyond a whole ADU (a frame's length bound).
     [[nodiscard]] std::size_t next_gap(std::size_t after) const;
