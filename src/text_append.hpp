@@ -166,19 +166,9 @@ inline bool copy_if_unquoted(char*& p, std::string_view text) {
     }
 }
 
-// An RFC 4180 field, quoted when it holds a comma, a quote or a line break; at most
-// 2 * size + 2 characters.
-inline char* write_csv_field(char* p, std::string_view text) {
-    char* end = p;
-    if (copy_if_unquoted(end, text)) return end;
-    *p++ = '"';
-    p = write_doubling_quotes(p, text);
-    *p++ = '"';
-    return p;
-}
-
-// The field `first` + " " + `second` (just `first` when `second` is empty), as
-// write_csv_field would write the joined text, without joining it first.
+// The RFC 4180 field `first` + " " + `second` (just `first` when `second` is empty),
+// without joining the two first: quoted when either holds a comma, a quote or a line
+// break; at most 2 * (both sizes + 1) + 2 characters.
 inline char* write_csv_field(char* p, std::string_view first, std::string_view second) {
     char* end = p;
     if (copy_if_unquoted(end, first)) {
@@ -194,6 +184,12 @@ inline char* write_csv_field(char* p, std::string_view first, std::string_view s
     }
     *p++ = '"';
     return p;
+}
+
+// An RFC 4180 field, quoted when it holds a comma, a quote or a line break; at most
+// 2 * size + 2 characters.
+inline char* write_csv_field(char* p, std::string_view text) {
+    return write_csv_field(p, text, {});
 }
 
 // Appends through one of the writers above: room for `bound` characters, then trimmed.
