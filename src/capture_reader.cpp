@@ -194,8 +194,7 @@ constexpr std::uint64_t kSeparators2 = separator_mask(".x..x..x");
 
 // Four bytes "XX XX XX XX" at `p` with a separator after each, as a little-endian
 // number; negative if any is not two hex digits (the shift of a -1 sets every bit above
-// it).
-// The caller has checked that none of the characters is 0x80 or above.
+// it). The caller has checked that none of the characters is 0x80 or above.
 std::int64_t four_hex_bytes(const char* p) {
     return ascii_hex_pair(p) | ascii_hex_pair(p + 3) << 8 | ascii_hex_pair(p + 6) << 16 |
            ascii_hex_pair(p + 9) << 24;
