@@ -58,6 +58,9 @@ int crc_rank(CrcStatus status) {
 struct PlainReading {
     bool decided = false;  // false: the general rules must decide
     bool found = false;    // decided: a reading checks (else no frame starts here)
+    // found: both readings are these same bytes (echoed answers: FC05, FC06, ...), so
+    // `role` is not settled: the request/answer order decides.
+    bool either = false;
     std::size_t length = 0;
     Role role = Role::request;
     CrcCheck crc;
@@ -72,16 +75,22 @@ struct PlainReading {
     const bool response_fits = response.fixed_within(head.size());
     if ((!request_fits && request.kind != FrameLength::Kind::none) ||
         (!response_fits && response.kind != FrameLength::Kind::none) ||
-        (!request_fits && !response_fits) ||
-        (request_fits && response_fits && request.bytes == response.bytes)) {
+        (!request_fits && !response_fits)) {
         return result;  // undecided: attempt_at's general rules take over
     }
     result.decided = true;
+    if (request_fits && response_fits && request.bytes == response.bytes) {
+        const CrcCheck crc = check_crc(head.first(request.bytes));
+        if (crc.status != CrcStatus::bad) {
+            result = {true, true, true, request.bytes, Role::request, crc};
+        }
+        return result;
+    }
     if (!request_fits || !response_fits) {
         const Role role = request_fits ? Role::request : Role::response;
         const std::size_t n = lengths.of(role).bytes;
         const CrcCheck crc = check_crc(head.first(n));
-        if (crc.status != CrcStatus::bad) result = {true, true, n, role, crc};
+        if (crc.status != CrcStatus::bad) result = {true, true, false, n, role, crc};
         return result;
     }
     // One pass for both: the CRC of the shorter reading is where the longer one's begins.
@@ -272,7 +281,6 @@ Framer::Attempt Framer::attempt_at(std::size_t at, bool at_end) const {
         return none;
     }
     const auto head = std::span(bytes_).subspan(at, std::min(avail, kMaxAdu));
-    const std::uint8_t slave = head[0];
     const std::uint8_t function = head[1];
     const ProtocolRules& rules = *options_.rules;
 
@@ -282,34 +290,23 @@ Framer::Attempt Framer::attempt_at(std::size_t at, bool at_end) const {
         Attempt frame;
         frame.outcome = Outcome::frame;
         frame.length = plain.length;
-        frame.reading = reading_for(plain.role, function);
+        const Role role =
+            plain.either && expects_answer_at(at, head) ? Role::response : plain.role;
+        frame.reading = reading_for(role, function);
         frame.crc = plain.crc;
         return with_delimiter(frame, at, at_end);
     }
 
-    // Which reading the request/answer sequence expects here; on a two-port tap the
-    // port it came from says it outright. Only asked when two readings fit or the length
-    // was searched, so worked out on first use.
+    // Only asked when two readings fit or the length was searched, so worked out on
+    // first use.
     enum class Preference : std::uint8_t { unknown, request, response };
     Preference preference = Preference::unknown;
     auto prefers_response = [&] {
-        if (preference != Preference::unknown) return preference == Preference::response;
-        const Nanos at_end_time = byte_end(at);
-        bool response = awaits_answer(head, at_end_time);
-        const std::string& channel = channels_[piece_of(at).channel];
-        if (!channel.empty() && !options_.request_channel.empty()) {
-            response = channel != options_.request_channel;
-        } else if (response) {
-            // The same request sent again (a master's retry) is not an answer, unless
-            // answers to this function repeat the request anyway.
-            const auto& req = options_.expectation->awaited(at_end_time)->request;
-            if (!rules.answer_is_echo(slave, function) && req.size() <= avail &&
-                std::equal(req.begin(), req.end(), head.begin())) {
-                response = false;
-            }
+        if (preference == Preference::unknown) {
+            preference =
+                expects_answer_at(at, head) ? Preference::response : Preference::request;
         }
-        preference = response ? Preference::response : Preference::request;
-        return response;
+        return preference == Preference::response;
     };
 
     // Bytes (from `at`) a reading still waits for; 0: none waits.
@@ -384,6 +381,25 @@ Framer::Attempt Framer::attempt_at(std::size_t at, bool at_end) const {
     if (best.outcome != Outcome::frame) return none;
     if (best.delimiter != Delimiter::length_crc) return best;
     return with_delimiter(best, at, at_end);
+}
+
+bool Framer::expects_answer_at(std::size_t at, std::span<const std::uint8_t> head) const {
+    const Nanos at_end_time = byte_end(at);
+    bool response = awaits_answer(head, at_end_time);
+    const std::string& channel = channels_[piece_of(at).channel];
+    if (!channel.empty() && !options_.request_channel.empty()) {
+        return channel != options_.request_channel;
+    }
+    if (response) {
+        // The same request sent again (a master's retry) is not an answer, unless
+        // answers to this function repeat the request anyway.
+        const auto& req = options_.expectation->awaited(at_end_time)->request;
+        if (!options_.rules->answer_is_echo(head[0], head[1]) && req.size() <= bytes_.size() - at &&
+            std::equal(req.begin(), req.end(), head.begin())) {
+            response = false;
+        }
+    }
+    return response;
 }
 
 Framer::Attempt Framer::with_delimiter(Attempt frame, std::size_t at, bool at_end) const {

@@ -88,6 +88,10 @@ class Framer {
     // A silence (or the start of the input or of a channel) of at least t3.5.
     [[nodiscard]] bool ends_frame(Nanos gap) const { return gap != kNoTime && gap >= t35_; }
     void classify_unframed(std::size_t from, std::size_t to);
+    // Which reading the request/answer sequence expects for the bytes `head` at `at`,
+    // when both fit: an answer (else a request). On a two-port tap the port they came
+    // from says it outright.
+    [[nodiscard]] bool expects_answer_at(std::size_t at, std::span<const std::uint8_t> head) const;
     // Whether the pairing stage awaits an answer from this slave and function at `at`.
     [[nodiscard]] bool awaits_answer(std::span<const std::uint8_t> head, Nanos at) const;
     // Request or answer by length alone (or by the awaited answer when both fit). With
