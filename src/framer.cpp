@@ -491,12 +491,14 @@ void Framer::decide(bool at_end) {
             break;
         }
         if (here.outcome == Outcome::frame) {
-            Notes notes;
             if (here.delimiter == Delimiter::crc_search) {
-                notes.push_back({note_id::unknown_length, "length found by CRC"});
+                const Note searched{note_id::unknown_length, "length found by CRC"};
+                emit(pos_, here.length, RecordClass::frame, here.reading, here.delimiter,
+                     here.crc, &searched);
+            } else {
+                emit(pos_, here.length, RecordClass::frame, here.reading, here.delimiter,
+                     here.crc);
             }
-            emit(pos_, here.length, RecordClass::frame, here.reading, here.delimiter, here.crc,
-                 std::move(notes));
             continue;
         }
 
@@ -582,14 +584,14 @@ void Framer::classify_unframed(std::size_t from, std::size_t to) {
             const Reading shape = reading_by_shape(piece, byte_end(start), false);
             if (crc.status != CrcStatus::bad) {
                 // CRC right but the length disagrees with the function code.
-                emit(start, n, RecordClass::frame, shape, Delimiter::gap, crc,
-                     {{note_id::malformed, "length does not fit its function code"}});
+                const Note malformed{note_id::malformed, "length does not fit its function code"};
+                emit(start, n, RecordClass::frame, shape, Delimiter::gap, crc, &malformed);
                 start = end;
                 continue;
             }
             if (shape != Reading::unknown) {
                 emit(start, n, RecordClass::invalid, shape,
-                     bounded_by_gaps ? Delimiter::gap : Delimiter::length_crc, crc, {});
+                     bounded_by_gaps ? Delimiter::gap : Delimiter::length_crc, crc);
                 start = end;
                 continue;
             }
@@ -598,7 +600,7 @@ void Framer::classify_unframed(std::size_t from, std::size_t to) {
             start = end;
             continue;
         }
-        emit(start, n, RecordClass::noise, Reading::unknown, Delimiter::gap, {}, {});
+        emit(start, n, RecordClass::noise, Reading::unknown, Delimiter::gap, {});
         start = end;
     }
 }
@@ -612,8 +614,10 @@ bool Framer::emit_if_truncated(std::size_t at, std::size_t n) {
                             answer_first ? Role::request : Role::response}) {
         const FrameLength& length = lengths.of(role);
         if (length.kind == FrameLength::Kind::fixed && length.bytes > n) {
+            const Note truncated{note_id::truncated,
+                                 fmt::format("cut short: {} of {} bytes", n, length.bytes)};
             emit(at, n, RecordClass::invalid, reading_for(role, piece[1]), Delimiter::gap, {},
-                 {{note_id::truncated, fmt::format("cut short: {} of {} bytes", n, length.bytes)}});
+                 &truncated);
             return true;
         }
     }
@@ -655,7 +659,7 @@ void Framer::emit_chunk_as_frame(const Chunk& chunk) {
 }
 
 void Framer::emit(std::size_t at, std::size_t length, RecordClass cls, Reading reading,
-                  Delimiter delimiter, CrcCheck crc, Notes notes) {
+                  Delimiter delimiter, CrcCheck crc, const Note* note) {
     Frame& frame = frame_;
     frame.bytes.assign(bytes_.begin() + static_cast<std::ptrdiff_t>(at),
                        bytes_.begin() + static_cast<std::ptrdiff_t>(at + length));
@@ -678,7 +682,7 @@ void Framer::emit(std::size_t at, std::size_t length, RecordClass cls, Reading r
     frame.source_line = piece.line;
     // Noise and frames cut short come without a CRC check, so without a CRC note.
     add_crc_note(frame);
-    frame.notes.insert(frame.notes.end(), notes.begin(), notes.end());
+    if (note != nullptr) frame.notes.push_back(*note);
     // Silences are measured only before a chunk's first byte: a frame in the middle of
     // one chunk has none to note.
     if (cls != RecordClass::noise && (piece.first == base_ + at || !within_piece)) {

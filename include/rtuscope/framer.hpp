@@ -100,9 +100,10 @@ class Framer {
                                            bool any_length_fits_search) const;
     bool emit_if_truncated(std::size_t at, std::size_t n);
     void emit_chunk_as_frame(const Chunk& chunk);
-    // `crc`: the check the caller made (none for noise and for frames cut short).
+    // `crc`: the check the caller made (none for noise and for frames cut short);
+    // `note`: the caller's, if any, after the CRC's.
     void emit(std::size_t at, std::size_t length, RecordClass cls, Reading reading,
-              Delimiter delimiter, CrcCheck crc, Notes notes);
+              Delimiter delimiter, CrcCheck crc, const Note* note = nullptr);
 
     // One pushed chunk: what is known of its bytes' timing. Kept per chunk, not per byte:
     // with seven per-byte arrays the bookkeeping cost more than the framing.
