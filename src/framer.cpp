@@ -430,23 +430,24 @@ Framer::Search Framer::search_length(std::size_t at, bool at_end, bool confirm) 
         result.pending = !at_end && bound == avail;
         return result;
     }
-    // Whether a frame of n bytes, whose first n - 2 give `crc`, ends the search.
-    auto ends_search = [&](std::size_t n, std::uint16_t crc) {
-        if (crc != (head[n - 2] | (head[n - 1] << 8))) return false;
+    // Whether a frame of n bytes whose CRC checks ends the search.
+    auto ends_search = [&](std::size_t n) {
         const Follows follows = confirm ? what_follows(at + n, at_end) : Follows::boundary;
         if (follows == Follows::boundary) result.length = n;
         if (follows == Follows::unknown_yet) result.pending = true;
         return follows != Follows::nothing;
     };
-    // The CRC goes two bytes a step: each step waits for the one before (a table lookup),
-    // so two bytes a step halve that wait; the odd lengths branch off the chain.
+    // A frame's CRC checks when the CRC over all its bytes, its own CRC (low byte first)
+    // included, is 0: one test per length, no CRC bytes to read. The CRC goes two bytes a
+    // step: each step waits for the one before (a table lookup), so two bytes a step
+    // halve that wait; the odd lengths branch off the chain.
     std::uint16_t crc = crc16_modbus(head.first(kMinAdu - 2));  // of n - 2 bytes
     for (std::size_t n = kMinAdu; n <= bound; n += 2) {
-        if (ends_search(n, crc)) return result;
-        if (n + 1 <= bound && ends_search(n + 1, crc16_modbus_byte(crc, head[n - 2]))) {
+        crc = crc16_modbus_2(crc, head[n - 2], head[n - 1]);  // of n bytes
+        if (crc == 0 && ends_search(n)) return result;
+        if (n + 1 <= bound && crc16_modbus_byte(crc, head[n]) == 0 && ends_search(n + 1)) {
             return result;
         }
-        crc = crc16_modbus_2(crc, head[n - 2], head[n - 1]);
     }
     result.pending = !at_end && bound == avail && avail < kMaxAdu;
     return result;
