@@ -63,7 +63,10 @@ struct PlainReading {
     bool either = false;
     std::size_t length = 0;
     Role role = Role::request;
-    CrcCheck crc;
+    // The CRC of its bytes before the last two, from which its check is made where it is
+    // used: a CrcCheck made here and copied there went through the stack, and reading it
+    // back stalled (its fields' stores had not reached memory), a tenth of attempt_at.
+    std::uint16_t expected_crc = 0;
 };
 
 [[gnu::always_inline]] inline PlainReading plain_reading(std::span<const std::uint8_t> head,
@@ -80,8 +83,8 @@ struct PlainReading {
     }
     result.decided = true;
     if (request_fits && response_fits && request.bytes == response.bytes) {
-        const CrcCheck crc = check_crc(head.first(request.bytes));
-        if (crc.status != CrcStatus::bad) {
+        const std::uint16_t crc = crc16_modbus(head.first(request.bytes - 2));
+        if (crc_check_of(head.first(request.bytes), crc).status != CrcStatus::bad) {
             result = {true, true, true, request.bytes, Role::request, crc};
         }
         return result;
@@ -89,20 +92,21 @@ struct PlainReading {
     if (!request_fits || !response_fits) {
         const Role role = request_fits ? Role::request : Role::response;
         const std::size_t n = lengths.of(role).bytes;
-        const CrcCheck crc = check_crc(head.first(n));
-        if (crc.status != CrcStatus::bad) result = {true, true, false, n, role, crc};
+        const std::uint16_t crc = crc16_modbus(head.first(n - 2));
+        if (crc_check_of(head.first(n), crc).status != CrcStatus::bad) {
+            result = {true, true, false, n, role, crc};
+        }
         return result;
     }
     // One pass for both: the CRC of the shorter reading is where the longer one's begins.
     const bool request_shorter = request.bytes < response.bytes;
     const std::size_t shorter = request_shorter ? request.bytes : response.bytes;
     const std::size_t longer = request_shorter ? response.bytes : request.bytes;
-    const std::uint16_t crc = crc16_modbus(head.first(shorter - 2));
-    const CrcCheck short_crc = crc_check_of(head.first(shorter), crc);
-    const CrcCheck long_crc = crc_check_of(
-        head.first(longer), crc16_modbus_update(crc, head.subspan(shorter - 2, longer - shorter)));
-    const int short_rank = crc_rank(short_crc.status);
-    const int long_rank = crc_rank(long_crc.status);
+    const std::uint16_t short_crc = crc16_modbus(head.first(shorter - 2));
+    const std::uint16_t long_crc =
+        crc16_modbus_update(short_crc, head.subspan(shorter - 2, longer - shorter));
+    const int short_rank = crc_rank(crc_check_of(head.first(shorter), short_crc).status);
+    const int long_rank = crc_rank(crc_check_of(head.first(longer), long_crc).status);
     if (short_rank == long_rank) {
         // Neither checks: no frame. Both equally: order and silences decide (attempt_at).
         result.decided = short_rank == 0;
@@ -112,7 +116,7 @@ struct PlainReading {
     result.found = true;
     result.length = short_wins ? shorter : longer;
     result.role = short_wins == request_shorter ? Role::request : Role::response;
-    result.crc = short_wins ? short_crc : long_crc;
+    result.expected_crc = short_wins ? short_crc : long_crc;
     return result;
 }
 
@@ -293,7 +297,7 @@ Framer::Attempt Framer::attempt_at(std::size_t at, bool at_end) const {
         const Role role =
             plain.either && expects_answer_at(at, head) ? Role::response : plain.role;
         frame.reading = reading_for(role, function);
-        frame.crc = plain.crc;
+        frame.crc = crc_check_of(head.first(plain.length), plain.expected_crc);
         return with_delimiter(frame, at, at_end);
     }
 
