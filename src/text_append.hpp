@@ -44,9 +44,23 @@ inline char* write_digits(char* p, std::uint64_t value, int digits) {
     return p + digits;
 }
 
+// Short texts (names, kinds) are copied here in at most two overlapping moves: a call to
+// memcpy for a few bytes cost more than the copy, and its size checks mispredicted.
 inline char* write_text(char* p, std::string_view text) {
-    std::memcpy(p, text.data(), text.size());
-    return p + text.size();
+    const char* s = text.data();
+    const std::size_t n = text.size();
+    if (n >= 8 && n <= 16) {
+        std::memcpy(p, s, 8);
+        std::memcpy(p + n - 8, s + n - 8, 8);
+    } else if (n >= 4 && n < 8) {
+        std::memcpy(p, s, 4);
+        std::memcpy(p + n - 4, s + n - 4, 4);
+    } else if (n < 4) {
+        for (std::size_t i = 0; i < n; ++i) p[i] = s[i];
+    } else {
+        std::memcpy(p, s, n);
+    }
+    return p + n;
 }
 
 // A byte's two hex digits, at 2 * byte: both digits of a byte come from one table entry
