@@ -666,7 +666,10 @@ void Framer::emit_chunk_as_frame(const Chunk& chunk) {
 void Framer::emit(std::size_t at, std::size_t length, RecordClass cls, Reading reading,
                   Delimiter delimiter, CrcCheck crc, const Note* note) {
     Frame& frame = frame_;
-    frame.bytes.assign(bytes_.begin() + static_cast<std::ptrdiff_t>(at),
+    // Emptied and refilled rather than assigned: assign copies in two pieces (over the old
+    // bytes, then past them) whenever the frame is longer than the last.
+    frame.bytes.clear();
+    frame.bytes.insert(frame.bytes.end(), bytes_.begin() + static_cast<std::ptrdiff_t>(at),
                        bytes_.begin() + static_cast<std::ptrdiff_t>(at + length));
     frame.notes.clear();
     frame.cls = cls;
