@@ -16,8 +16,7 @@ namespace rtuscope::test {
 using Bytes = std::vector<std::uint8_t>;
 
 // The bytes followed by their CRC-16/MODBUS, low byte first.
-inline Bytes with_crc(std::initializer_list<std::uint8_t> body) {
-    Bytes frame(body);
+inline Bytes with_crc(Bytes frame) {
     const std::uint16_t crc = crc16_modbus(frame);
     frame.push_back(static_cast<std::uint8_t>(crc & 0xFF));
     frame.push_back(static_cast<std::uint8_t>(crc >> 8));

@@ -222,6 +222,30 @@ TEST(Framer, UnknownLengthsWithoutTimingStillFound) {
     expect_frame(r[3], kWrite, Kind::request);
 }
 
+// The search tries lengths several at a time (framer.cpp): every length must still be
+// found, wherever it falls in a step, the shortest first.
+TEST(Framer, CrcSearchFindsEveryLength) {
+    for (std::size_t length = kMinAdu; length <= 64; ++length) {
+        Bytes body = {0x05, 0x41};
+        for (std::size_t i = 2; i + 2 < length; ++i) {
+            body.push_back(static_cast<std::uint8_t>(i * 37));
+        }
+        const Bytes vendor = with_crc(body);
+        ASSERT_EQ(vendor.size(), length);
+        Harness h;
+        const auto& r = h.run_raw(concat({kRead, kReadAnswer, vendor, kWrite}));
+        ASSERT_EQ(r.size(), 4U) << "length " << length;
+        expect_frame(r[2], vendor, Kind::request);
+        EXPECT_EQ(r[2].frame.delimiter, Delimiter::crc_search) << "length " << length;
+        expect_frame(r[3], kWrite, Kind::request);
+        // Last in the input: the search ends with the input, mid-step.
+        Harness last;
+        const auto& at_end = last.run_raw(concat({kRead, kReadAnswer, vendor}));
+        ASSERT_EQ(at_end.size(), 3U) << "length " << length;
+        expect_frame(at_end[2], vendor, Kind::request);
+    }
+}
+
 TEST(Framer, BadCrcBetweenGapsIsInvalidAndSwappedCrcIsAFrame) {
     Bytes corrupt = kRead;
     corrupt[7] ^= 0x40;
