@@ -35,7 +35,7 @@ class CsvSink final : public RecordSink {
         const std::size_t bound = kFixedChars + 2 * r.frame.bytes.size() + 2 * name.size() +
                                   2 * carried.size() + 2 + 2 * flags_.ids.size() +
                                   2 * flags_.texts.size() + 6;
-        append_with(out_.text(), bound, [&](char* p) {
+        out_.write(bound, [&](char* p) {
             p = write_uint(p, r.number);
             *p++ = ',';
             p = write_seconds(p, r.frame.start);
@@ -62,7 +62,6 @@ class CsvSink final : public RecordSink {
             *p++ = '\n';
             return p;
         });
-        out_.record_done();
     }
 
     void flush() override {

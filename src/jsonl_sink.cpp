@@ -44,7 +44,7 @@ class JsonlSink final : public RecordSink {
 
     void record(const Record& r) override {
         const bool framed = r.kind != Kind::noise;
-        std::string& line = out_.text();
+        std::string& line = out_.line();
         auto append_number_or_null = [&](bool known, std::uint64_t value) {
             if (known) {
                 append_uint(line, value);

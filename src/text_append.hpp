@@ -13,6 +13,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
+#include <memory>
 #include <span>
 #include <string>
 #include <string_view>
@@ -271,22 +272,49 @@ class BlockOutput {
     ~BlockOutput() { send(); }
 
     [[nodiscard]] std::FILE* file() const { return file_; }
-    // Where the next record's text goes.
-    std::string& text() { return text_; }
-    // A record's text is complete: hand over a full block.
-    void record_done() {
-        if (text_.size() >= kBlockBytes) send();
+
+    // A record written straight into the block: `write` gets where to write, at most
+    // `bound` characters, and returns the end of what it wrote. The room is not filled
+    // first, as a std::string's resize must (a memset of the whole bound per CSV row).
+    template <class Write>
+    void write(std::size_t bound, Write write) {
+        make_room(bound);
+        used_ = static_cast<std::size_t>(write(block_.get() + used_) - block_.get());
+        if (used_ >= kBlockBytes) send();
     }
+
+    // A record composed with std::string's appends (the text and JSONL sinks): line() is
+    // where it goes, record_done() moves it into the block.
+    std::string& line() { return line_; }
+    void record_done() {
+        write(line_.size(), [&](char* p) { return std::copy(line_.begin(), line_.end(), p); });
+        line_.clear();
+    }
+
     void send() {
-        std::fwrite(text_.data(), 1, text_.size(), file_);
-        text_.clear();
+        std::fwrite(block_.get(), 1, used_, file_);
+        used_ = 0;
     }
 
   private:
     static constexpr std::size_t kBlockBytes = std::size_t{64} << 10;
 
+    void make_room(std::size_t bound) {
+        if (capacity_ - used_ >= bound) return;
+        // Records are added below kBlockBytes (a full block is sent at once), so one block
+        // and a record's bound is all the room there ever is, unless a record is larger.
+        const std::size_t capacity = std::max(kBlockBytes, used_) + bound;
+        auto larger = std::make_unique_for_overwrite<char[]>(capacity);
+        if (used_ > 0) std::memcpy(larger.get(), block_.get(), used_);
+        block_ = std::move(larger);
+        capacity_ = capacity;
+    }
+
     std::FILE* file_;
-    std::string text_;
+    std::unique_ptr<char[]> block_;
+    std::size_t capacity_ = 0;
+    std::size_t used_ = 0;
+    std::string line_;
 };
 
 }  // namespace rtuscope

@@ -66,8 +66,7 @@ class TextSink final : public RecordSink {
     }
 
     void record(const Record& r) override {
-        std::string& line = out_.text();
-        const std::size_t line_start = line.size();
+        std::string& line = out_.line();
         time_text_.clear();
         append_time_column(time_text_, r.frame.start);
         append_padded(line, r.number, 5);
@@ -118,7 +117,7 @@ class TextSink final : public RecordSink {
         }
         append_notes(line, r.notes);
         // Trailing spaces come from padding a short last column.
-        while (line.size() > line_start && line.back() == ' ') line.pop_back();
+        while (!line.empty() && line.back() == ' ') line.pop_back();
         line += '\n';
         if (options_.hex && framed) {
             line.append(28, ' ');
