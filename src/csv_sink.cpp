@@ -38,7 +38,7 @@ class CsvSink final : public RecordSink {
         out_.write(bound, [&](char* p) {
             p = write_uint(p, r.number);
             *p++ = ',';
-            p = write_seconds(p, r.frame.start);
+            p = seconds_.write(p, r.frame.start);
             *p++ = ',';
             if (framed && !r.frame.bytes.empty()) p = write_uint(p, r.frame.slave());
             *p++ = ',';
@@ -75,6 +75,7 @@ class CsvSink final : public RecordSink {
 
   private:
     BlockOutput out_;
+    SecondsWriter seconds_;
     // Fields that may need quoting, built before they are written; all reused.
     std::string summary_;  // noise only
     FlagColumns flags_;

@@ -100,6 +100,29 @@ inline char* write_seconds(char* p, Nanos time) {
     return write_digits(p, micros % 1'000'000, 6);
 }
 
+// write_seconds for a column of times in order: their whole seconds change once in
+// hundreds of records, so their digits are written once and copied after that.
+class SecondsWriter {
+  public:
+    char* write(char* p, Nanos time) {
+        if (!has_time(time) || time < 0) return write_seconds(p, time);
+        const std::uint64_t micros = (static_cast<std::uint64_t>(time) + 500) / 1000;
+        const std::uint64_t seconds = micros / 1'000'000;
+        if (seconds != seconds_) {
+            seconds_ = seconds;
+            size_ = static_cast<std::size_t>(write_uint(digits_.data(), seconds) - digits_.data());
+        }
+        p = write_text(p, std::string_view(digits_.data(), size_));
+        *p++ = '.';
+        return write_digits(p, micros % 1'000'000, 6);
+    }
+
+  private:
+    std::uint64_t seconds_ = ~std::uint64_t{0};
+    std::array<char, kMaxUintChars> digits_{};
+    std::size_t size_ = 0;
+};
+
 // Milliseconds with 2 or 3 decimals, exactly as fmt's "{:.2f}"/"{:.3f}" write ns / 1e6
 // ("12.345", "-0.004"); at most kMaxMillisChars characters. Integer arithmetic, except
 // where the double's own rounding decides: a value halfway between two outputs (and

@@ -195,6 +195,48 @@ TEST(Outputs, LatencyReadsAsFmtRoundsTheMilliseconds) {
     }
 }
 
+// The CSV keeps a time's whole seconds written while they stay the same: each time must
+// still read as its own, across seconds, digit counts, no time and times before 1970.
+TEST(Csv, TimeColumnIsEachRecordsOwnTime) {
+    std::vector<Nanos> times = {1'763'798'400'011'139'000, 1'763'798'400'999'999'499,
+                                1'763'798'400'999'999'500,  // rounds up into the next second
+                                1'763'798'401'000'000'000, kNoTime, 1'763'798'401'500'000'000,
+                                5'000'000'000, 9'999'999'999, 10'000'000'000, 0, 499, -1,
+                                -1'500'000'000, 1'763'798'401'500'000'000, 9'999'999'999};
+    std::mt19937_64 random(11);
+    Nanos t = 1'700'000'000'000'000'000;
+    for (int i = 0; i < 3000; ++i) {
+        t += static_cast<Nanos>(random() % 5'000'000);  // a few hundred records a second
+        times.push_back(t);
+    }
+    const std::string csv = sink_output(make_csv_sink, [&](RecordSink& sink) {
+        Record r;
+        r.kind = Kind::noise;
+        for (const Nanos time : times) {
+            r.frame.start = time;
+            sink.record(r);
+        }
+    });
+    std::vector<std::string> column;
+    for (std::size_t at = csv.find('\n') + 1; at < csv.size(); at = csv.find('\n', at) + 1) {
+        const std::size_t field = csv.find(',', at) + 1;
+        column.push_back(csv.substr(field, csv.find(',', field) - field));
+    }
+    ASSERT_EQ(column.size(), times.size());
+    for (std::size_t i = 0; i < times.size(); ++i) {
+        std::string expected;
+        if (has_time(times[i])) {
+            // The sign, then the microseconds rounded half away from zero.
+            const bool negative = times[i] < 0;
+            const auto micros =
+                (static_cast<std::uint64_t>(negative ? -times[i] : times[i]) + 500) / 1000;
+            expected = fmt::format("{}{}.{:06}", negative ? "-" : "", micros / 1'000'000,
+                                   micros % 1'000'000);
+        }
+        EXPECT_EQ(column[i], expected) << times[i] << " ns";
+    }
+}
+
 // The CSV writer looks for the characters that need quotes 16 at a time, its last block
 // overlapping the one before; the expected field here is RFC 4180 done the slow way.
 // Texts of every length up to 40 with each of those characters (and other control
