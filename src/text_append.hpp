@@ -123,6 +123,33 @@ class SecondsWriter {
     std::size_t size_ = 0;
 };
 
+// write_uint for a column that counts up (record numbers): the next number is the last
+// one's digits with one added, carried by hand, rather than formatted afresh.
+class CountWriter {
+  public:
+    char* write(char* p, std::uint64_t value) {
+        if (size_ == 0 || value == 0 || value != value_ + 1) {
+            size_ = static_cast<std::size_t>(write_uint(digits_.data(), value) - digits_.data());
+        } else {
+            std::size_t i = size_;
+            while (i > 0 && digits_[i - 1] == '9') digits_[--i] = '0';
+            if (i > 0) {
+                ++digits_[i - 1];
+            } else {  // 99 -> 100
+                digits_[size_++] = '0';
+                digits_[0] = '1';
+            }
+        }
+        value_ = value;
+        return write_text(p, std::string_view(digits_.data(), size_));
+    }
+
+  private:
+    std::uint64_t value_ = 0;
+    std::array<char, kMaxUintChars + 1> digits_{};
+    std::size_t size_ = 0;
+};
+
 // Milliseconds with 2 or 3 decimals, exactly as fmt's "{:.2f}"/"{:.3f}" write ns / 1e6
 // ("12.345", "-0.004"); at most kMaxMillisChars characters. Integer arithmetic, except
 // where the double's own rounding decides: a value halfway between two outputs (and

@@ -237,6 +237,34 @@ TEST(Csv, TimeColumnIsEachRecordsOwnTime) {
     }
 }
 
+// The CSV counts record numbers up by hand while they go up by one: each must still read
+// as its own, across carries into a new digit, gaps (filtered records) and restarts.
+TEST(Csv, NumberColumnIsEachRecordsOwnNumber) {
+    std::vector<std::uint64_t> numbers;
+    for (std::uint64_t n = 1; n <= 1200; ++n) numbers.push_back(n);
+    for (const std::uint64_t n : {99'998ULL, 99'999ULL, 100'000ULL, 100'001ULL, 7ULL, 8ULL, 8ULL,
+                                  0ULL, 1ULL, 18'446'744'073'709'551'614ULL,
+                                  18'446'744'073'709'551'615ULL, 0ULL, 9ULL, 10ULL}) {
+        numbers.push_back(n);
+    }
+    const std::string csv = sink_output(make_csv_sink, [&](RecordSink& sink) {
+        Record r;
+        r.kind = Kind::noise;
+        for (const std::uint64_t number : numbers) {
+            r.number = number;
+            sink.record(r);
+        }
+    });
+    std::vector<std::string> column;
+    for (std::size_t at = csv.find('\n') + 1; at < csv.size(); at = csv.find('\n', at) + 1) {
+        column.push_back(csv.substr(at, csv.find(',', at) - at));
+    }
+    ASSERT_EQ(column.size(), numbers.size());
+    for (std::size_t i = 0; i < numbers.size(); ++i) {
+        EXPECT_EQ(column[i], std::to_string(numbers[i])) << "record " << i;
+    }
+}
+
 // The CSV writer looks for the characters that need quotes 16 at a time, its last block
 // overlapping the one before; the expected field here is RFC 4180 done the slow way.
 // Texts of every length up to 40 with each of those characters (and other control
