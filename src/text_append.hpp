@@ -24,21 +24,33 @@ namespace rtuscope {
 
 inline constexpr std::size_t kMaxUintChars = 20;
 
+// The two digits of 0-99, at 2 * n.
+inline constexpr auto kTwoDigits = [] {
+    std::array<char, 200> pairs{};
+    for (std::size_t n = 0; n < 100; ++n) {
+        pairs[2 * n] = static_cast<char>('0' + n / 10);
+        pairs[2 * n + 1] = static_cast<char>('0' + n % 10);
+    }
+    return pairs;
+}();
+
 inline char* write_uint(char* p, std::uint64_t value) {
+    // Slave addresses, function codes, counts: most numbers written are small, and fmt's
+    // general path cost several times what these two cases do.
+    if (value < 10) {
+        *p = static_cast<char>('0' + value);
+        return p + 1;
+    }
+    if (value < 100) {
+        std::memcpy(p, &kTwoDigits[2 * value], 2);
+        return p + 2;
+    }
     return fmt::format_to(p, FMT_COMPILE("{}"), value);
 }
 
 // Exactly `digits` digits, zero-padded: the fraction of a time, a clock field. Two digits
 // a step from a table: every record's time has six.
 inline char* write_digits(char* p, std::uint64_t value, int digits) {
-    static constexpr auto kTwoDigits = [] {
-        std::array<char, 200> pairs{};
-        for (std::size_t n = 0; n < 100; ++n) {
-            pairs[2 * n] = static_cast<char>('0' + n / 10);
-            pairs[2 * n + 1] = static_cast<char>('0' + n % 10);
-        }
-        return pairs;
-    }();
     int i = digits;
     for (; i >= 2; i -= 2, value /= 100) std::memcpy(p + i - 2, &kTwoDigits[2 * (value % 100)], 2);
     if (i == 1) p[0] = static_cast<char>('0' + value % 10);
