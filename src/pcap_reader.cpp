@@ -9,6 +9,7 @@
 #include <cstring>
 #include <map>
 #include <span>
+#include <string_view>
 
 #include "rtuscope/pcap.hpp"
 #include "rtuscope/sources.hpp"
@@ -69,7 +70,7 @@ bool supported_link_type(int dlt) {
     }
 }
 
-std::string channel_for_ports(std::uint32_t src, std::uint32_t dst) {
+std::string_view channel_for_ports(std::uint32_t src, std::uint32_t dst) {
     if (dst == kModbusPort && src != kModbusPort) return "master";
     if (src == kModbusPort && dst != kModbusPort) return "slave";
     return {};
@@ -79,8 +80,8 @@ std::string channel_for_ports(std::uint32_t src, std::uint32_t dst) {
 // the remarks), or an Error for a packet that is broken where it should not be.
 struct Extracted {
     Bytes frame;
-    std::string channel;
-    std::string skipped;  // non-empty: no frame, and why
+    std::string_view channel;  // "master", "slave" or none
+    std::string skipped;       // non-empty: no frame, and why
 };
 
 Extracted skip(std::string why) {
@@ -144,7 +145,7 @@ Extracted ether_payload(std::uint16_t type, Bytes rest) {
 
 Result<Extracted> exported_pdu_payload(Bytes p, std::uint64_t number) {
     std::size_t at = 0;
-    std::string name;
+    std::string_view name;
     std::uint32_t src = 0;
     std::uint32_t dst = 0;
     for (;;) {
@@ -162,8 +163,8 @@ Result<Extracted> exported_pdu_payload(Bytes p, std::uint64_t number) {
         at += length;
         if (tag == kTagEndOfOpt) break;
         if (tag == kTagDissectorName || tag == kTagHeuristicName) {
-            name.assign(value.begin(), value.end());
-            name.erase(name.find_last_not_of('\0') + 1);  // the padding
+            name = std::string_view(reinterpret_cast<const char*>(value.data()), value.size());
+            name = name.substr(0, name.find_last_not_of('\0') + 1);  // the padding
         } else if (tag == kTagSrcPort && length >= 4) {
             src = be32(value, 0);
         } else if (tag == kTagDstPort && length >= 4) {
@@ -299,7 +300,7 @@ class PcapSource final : public ChunkSource {
                              info_.name};
             }
             out.time = time;
-            out.channel = std::move(got->channel);
+            if (out.channel != got->channel) out.channel = got->channel;
             out.bytes.assign(got->frame.begin(), got->frame.end());
             out.source_line = 0;
             out.char_errors.clear();
@@ -348,13 +349,23 @@ bool looks_like_pcap(std::string_view head) {
 
 Result<std::unique_ptr<ChunkSource>> pcap_source_from_stream(std::string head, std::FILE* rest,
                                                              bool close_rest, std::string name) {
-    auto* cookie = new ChainCookie{std::move(head), 0, rest, close_rest};
-    const cookie_io_functions_t io{chain_read, nullptr, nullptr, chain_close};
-    std::FILE* stream = fopencookie(cookie, "rb", io);
-    if (stream == nullptr) {
-        const int err = errno;
-        chain_close(cookie);
-        return Error{fmt::format("cannot read: {}", std::strerror(err)), name};
+    // A file of ours whose head was read from its own start (it stands just past the head)
+    // and that can go back there is libpcap's to read as it is: through the chain below,
+    // every packet's reads took glibc's slow generic path.
+    std::FILE* stream = nullptr;
+    const long position = rest != nullptr ? std::ftell(rest) : -1;
+    if (close_rest && position >= 0 && static_cast<std::size_t>(position) == head.size() &&
+        std::fseek(rest, 0, SEEK_SET) == 0) {
+        stream = rest;
+    } else {
+        auto* cookie = new ChainCookie{std::move(head), 0, rest, close_rest};
+        const cookie_io_functions_t io{chain_read, nullptr, nullptr, chain_close};
+        stream = fopencookie(cookie, "rb", io);
+        if (stream == nullptr) {
+            const int err = errno;
+            chain_close(cookie);
+            return Error{fmt::format("cannot read: {}", std::strerror(err)), name};
+        }
     }
     char errbuf[PCAP_ERRBUF_SIZE] = {};
     pcap_t* pcap =
