@@ -354,6 +354,7 @@ class BlockOutput {
     }
 
     void send() {
+        if (used_ == 0) return;
         std::fwrite(block_.get(), 1, used_, file_);
         used_ = 0;
     }
