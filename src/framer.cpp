@@ -294,8 +294,7 @@ Framer::Attempt Framer::attempt_at(std::size_t at, bool at_end) const {
         Attempt frame;
         frame.outcome = Outcome::frame;
         frame.length = plain.length;
-        const Role role =
-            plain.either && expects_answer_at(at, head) ? Role::response : plain.role;
+        const Role role = plain.either && expects_answer_at(at, head) ? Role::response : plain.role;
         frame.reading = reading_for(role, function);
         frame.crc = crc_check_of(head.first(plain.length), plain.expected_crc);
         return with_delimiter(frame, at, at_end);
@@ -307,8 +306,7 @@ Framer::Attempt Framer::attempt_at(std::size_t at, bool at_end) const {
     Preference preference = Preference::unknown;
     auto prefers_response = [&] {
         if (preference == Preference::unknown) {
-            preference =
-                expects_answer_at(at, head) ? Preference::response : Preference::request;
+            preference = expects_answer_at(at, head) ? Preference::response : Preference::request;
         }
         return preference == Preference::response;
     };
@@ -442,27 +440,18 @@ Framer::Search Framer::search_length(std::size_t at, bool at_end, bool confirm) 
         return follows != Follows::nothing;
     };
     // A frame's CRC checks when the CRC over all its bytes, its own CRC (low byte first)
-    // included, is 0: one test per length, no CRC bytes to read. The CRC goes four bytes a
-    // step: each step waits for the one before (table lookups), so four bytes a step
-    // quarter that wait; the three lengths in between branch off the chain, each by its
-    // own independent lookups.
-    const auto& tables = detail::kCrcTables;
+    // included, is 0: one test per length, no CRC bytes to read. Four lengths a step: each
+    // step waits for the one before (table lookups), so four bytes a step quarter that
+    // wait.
     std::size_t done = kMinAdu - 1;
     std::uint16_t crc = crc16_modbus(head.first(done));  // of `done` bytes
     for (; done + 4 <= bound; done += 4) {
-        const auto b0 = static_cast<std::uint8_t>(head[done] ^ (crc & 0xFFU));
-        const auto b1 = static_cast<std::uint8_t>(head[done + 1] ^ (crc >> 8));
-        const std::uint8_t b2 = head[done + 2];
-        const std::uint8_t b3 = head[done + 3];
-        const auto crc1 = static_cast<std::uint16_t>((crc >> 8) ^ tables[0][b0]);
-        const auto crc2 = static_cast<std::uint16_t>(tables[1][b0] ^ tables[0][b1]);
-        const auto crc3 = static_cast<std::uint16_t>(tables[2][b0] ^ tables[1][b1] ^ tables[0][b2]);
-        crc = static_cast<std::uint16_t>(tables[3][b0] ^ tables[2][b1] ^ tables[1][b2] ^
-                                         tables[0][b3]);
-        if ((crc1 == 0 && ends_search(done + 1)) || (crc2 == 0 && ends_search(done + 2)) ||
-            (crc3 == 0 && ends_search(done + 3)) || (crc == 0 && ends_search(done + 4))) {
+        const auto after = crc16_modbus_each_of_4(crc, head.data() + done);
+        if ((after[0] == 0 && ends_search(done + 1)) || (after[1] == 0 && ends_search(done + 2)) ||
+            (after[2] == 0 && ends_search(done + 3)) || (after[3] == 0 && ends_search(done + 4))) {
             return result;
         }
+        crc = after[3];
     }
     for (; done < bound; ++done) {
         crc = crc16_modbus_byte(crc, head[done]);
@@ -513,11 +502,10 @@ void Framer::decide(bool at_end) {
         if (here.outcome == Outcome::frame) {
             if (here.delimiter == Delimiter::crc_search) {
                 const Note searched{note_id::unknown_length, "length found by CRC"};
-                emit(pos_, here.length, RecordClass::frame, here.reading, here.delimiter,
-                     here.crc, &searched);
+                emit(pos_, here.length, RecordClass::frame, here.reading, here.delimiter, here.crc,
+                     &searched);
             } else {
-                emit(pos_, here.length, RecordClass::frame, here.reading, here.delimiter,
-                     here.crc);
+                emit(pos_, here.length, RecordClass::frame, here.reading, here.delimiter, here.crc);
             }
             continue;
         }

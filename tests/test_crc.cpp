@@ -96,6 +96,14 @@ TEST(Crc, EveryLengthAndSplitAgreesWithTheBitwiseDefinition) {
         }
         if (n % 2 == 1) two_at_a_time = crc16_modbus_byte(two_at_a_time, bytes[n - 1]);
         ASSERT_EQ(two_at_a_time, expected) << n << " bytes two at a time";
+        if (n >= 4) {
+            const auto after =
+                crc16_modbus_each_of_4(crc16_modbus(bytes.first(n - 4)), bytes.data() + n - 4);
+            for (std::size_t k = 0; k < 4; ++k) {
+                ASSERT_EQ(after[k], bitwise(bytes.first(n - 3 + k)))
+                    << n - 4 << " bytes, then " << k + 1 << " of four";
+            }
+        }
     }
 }
 

@@ -198,11 +198,21 @@ TEST(Outputs, LatencyReadsAsFmtRoundsTheMilliseconds) {
 // The CSV keeps a time's whole seconds written while they stay the same: each time must
 // still read as its own, across seconds, digit counts, no time and times before 1970.
 TEST(Csv, TimeColumnIsEachRecordsOwnTime) {
-    std::vector<Nanos> times = {1'763'798'400'011'139'000, 1'763'798'400'999'999'499,
+    std::vector<Nanos> times = {1'763'798'400'011'139'000,
+                                1'763'798'400'999'999'499,
                                 1'763'798'400'999'999'500,  // rounds up into the next second
-                                1'763'798'401'000'000'000, kNoTime, 1'763'798'401'500'000'000,
-                                5'000'000'000, 9'999'999'999, 10'000'000'000, 0, 499, -1,
-                                -1'500'000'000, 1'763'798'401'500'000'000, 9'999'999'999};
+                                1'763'798'401'000'000'000,
+                                kNoTime,
+                                1'763'798'401'500'000'000,
+                                5'000'000'000,
+                                9'999'999'999,
+                                10'000'000'000,
+                                0,
+                                499,
+                                -1,
+                                -1'500'000'000,
+                                1'763'798'401'500'000'000,
+                                9'999'999'999};
     std::mt19937_64 random(11);
     Nanos t = 1'700'000'000'000'000'000;
     for (int i = 0; i < 3000; ++i) {
@@ -242,9 +252,9 @@ TEST(Csv, TimeColumnIsEachRecordsOwnTime) {
 TEST(Csv, NumberColumnIsEachRecordsOwnNumber) {
     std::vector<std::uint64_t> numbers;
     for (std::uint64_t n = 1; n <= 1200; ++n) numbers.push_back(n);
-    for (const std::uint64_t n : {99'998ULL, 99'999ULL, 100'000ULL, 100'001ULL, 7ULL, 8ULL, 8ULL,
-                                  0ULL, 1ULL, 18'446'744'073'709'551'614ULL,
-                                  18'446'744'073'709'551'615ULL, 0ULL, 9ULL, 10ULL}) {
+    for (const std::uint64_t n :
+         {99'998ULL, 99'999ULL, 100'000ULL, 100'001ULL, 7ULL, 8ULL, 8ULL, 0ULL, 1ULL,
+          18'446'744'073'709'551'614ULL, 18'446'744'073'709'551'615ULL, 0ULL, 9ULL, 10ULL}) {
         numbers.push_back(n);
     }
     const std::string csv = sink_output(make_csv_sink, [&](RecordSink& sink) {

@@ -26,6 +26,22 @@ inline std::uint16_t crc16_modbus_2(std::uint16_t crc, std::uint8_t first, std::
                                       detail::kCrcTables[0][((crc >> 8) ^ second) & 0xFFU]);
 }
 
+// Four bytes more, with the CRC after each of them: [3] is the CRC after all four, by
+// four independent lookups (slicing-by-4); [0]-[2], after one, two and three of them,
+// branch off it by lookups of their own. For a search that tests every length, four
+// lengths a step.
+inline std::array<std::uint16_t, 4> crc16_modbus_each_of_4(std::uint16_t crc,
+                                                           const std::uint8_t* bytes) {
+    const auto& tables = detail::kCrcTables;
+    const auto b0 = static_cast<std::uint8_t>(bytes[0] ^ (crc & 0xFFU));
+    const auto b1 = static_cast<std::uint8_t>(bytes[1] ^ (crc >> 8));
+    return {static_cast<std::uint16_t>((crc >> 8) ^ tables[0][b0]),
+            static_cast<std::uint16_t>(tables[1][b0] ^ tables[0][b1]),
+            static_cast<std::uint16_t>(tables[2][b0] ^ tables[1][b1] ^ tables[0][bytes[2]]),
+            static_cast<std::uint16_t>(tables[3][b0] ^ tables[2][b1] ^ tables[1][bytes[2]] ^
+                                       tables[0][bytes[3]])};
+}
+
 // Continues a CRC over more bytes: crc16_modbus(a + b) == crc16_modbus_update(crc16_modbus(a), b).
 // Inline: frames are short, and called for each of a position's readings the call and
 // the loop's set-up cost as much as the bytes.
