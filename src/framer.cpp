@@ -63,10 +63,7 @@ struct PlainReading {
     bool either = false;
     std::size_t length = 0;
     Role role = Role::request;
-    // The CRC of its bytes before the last two, from which its check is made where it is
-    // used: a CrcCheck made here and copied there went through the stack, and reading it
-    // back stalled (its fields' stores had not reached memory), a tenth of attempt_at.
-    std::uint16_t expected_crc = 0;
+    std::uint16_t expected_crc = 0;  // of its bytes before the last two; the caller checks
 };
 
 [[gnu::always_inline]] inline PlainReading plain_reading(std::span<const std::uint8_t> head,
@@ -82,19 +79,14 @@ struct PlainReading {
         return result;  // undecided: attempt_at's general rules take over
     }
     result.decided = true;
-    if (request_fits && response_fits && request.bytes == response.bytes) {
-        const std::uint16_t crc = crc16_modbus(head.first(request.bytes - 2));
-        if (crc_check_of(head.first(request.bytes), crc).status != CrcStatus::bad) {
-            result = {true, true, true, request.bytes, Role::request, crc};
-        }
-        return result;
-    }
-    if (!request_fits || !response_fits) {
+    // One reading fits, or both are the same bytes: one CRC settles it.
+    const bool same_bytes = request_fits && response_fits && request.bytes == response.bytes;
+    if (same_bytes || !request_fits || !response_fits) {
         const Role role = request_fits ? Role::request : Role::response;
         const std::size_t n = lengths.of(role).bytes;
         const std::uint16_t crc = crc16_modbus(head.first(n - 2));
         if (crc_check_of(head.first(n), crc).status != CrcStatus::bad) {
-            result = {true, true, false, n, role, crc};
+            result = {true, true, same_bytes, n, role, crc};
         }
         return result;
     }
@@ -319,8 +311,8 @@ Framer::Attempt Framer::attempt_at(std::size_t at, bool at_end) const {
     bool searched = false;
     Attempt best;
     auto better = [&](const Attempt& a, const Attempt& b) {
-        if ((a.crc.status == CrcStatus::ok) != (b.crc.status == CrcStatus::ok)) {
-            return a.crc.status == CrcStatus::ok;
+        if (crc_rank(a.crc.status) != crc_rank(b.crc.status)) {
+            return crc_rank(a.crc.status) > crc_rank(b.crc.status);
         }
         const bool a_answer = a.reading != Reading::request;
         if (a_answer != (b.reading != Reading::request)) return a_answer == prefers_response();
@@ -386,22 +378,17 @@ Framer::Attempt Framer::attempt_at(std::size_t at, bool at_end) const {
 }
 
 bool Framer::expects_answer_at(std::size_t at, std::span<const std::uint8_t> head) const {
-    const Nanos at_end_time = byte_end(at);
-    bool response = awaits_answer(head, at_end_time);
     const std::string& channel = channels_[piece_of(at).channel];
     if (!channel.empty() && !options_.request_channel.empty()) {
         return channel != options_.request_channel;
     }
-    if (response) {
-        // The same request sent again (a master's retry) is not an answer, unless
-        // answers to this function repeat the request anyway.
-        const auto& req = options_.expectation->awaited(at_end_time)->request;
-        if (!options_.rules->answer_is_echo(head[0], head[1]) && req.size() <= bytes_.size() - at &&
-            std::equal(req.begin(), req.end(), head.begin())) {
-            response = false;
-        }
-    }
-    return response;
+    const Nanos at_end_time = byte_end(at);
+    if (!awaits_answer(head, at_end_time)) return false;
+    // The same request sent again (a master's retry) is not an answer, unless answers to
+    // this function repeat the request anyway.
+    const auto& req = options_.expectation->awaited(at_end_time)->request;
+    return options_.rules->answer_is_echo(head[0], head[1]) || req.size() > bytes_.size() - at ||
+           !std::equal(req.begin(), req.end(), head.begin());
 }
 
 Framer::Attempt Framer::with_delimiter(Attempt frame, std::size_t at, bool at_end) const {
