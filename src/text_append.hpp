@@ -101,15 +101,21 @@ inline char* write_hex(char* p, std::span<const std::uint8_t> bytes, bool spaced
 // Seconds with 6 decimals, rounded to the microsecond ("1763798400.022360"), nothing
 // without a time; at most 28 characters. Integer arithmetic: no floating point, no locale.
 inline constexpr std::size_t kMaxSecondsChars = 28;
-inline char* write_seconds(char* p, Nanos time) {
+// With the whole seconds written by `write_whole(p, seconds)`.
+template <class WriteWhole>
+char* write_seconds_with(char* p, Nanos time, WriteWhole write_whole) {
     if (!has_time(time)) return p;
     const bool negative = time < 0;
     const auto magnitude = static_cast<std::uint64_t>(negative ? -(time + 1) + 1 : time);
     const std::uint64_t micros = (magnitude + 500) / 1000;
     if (negative) *p++ = '-';
-    p = write_uint(p, micros / 1'000'000);
+    p = write_whole(p, micros / 1'000'000);
     *p++ = '.';
     return write_digits(p, micros % 1'000'000, 6);
+}
+
+inline char* write_seconds(char* p, Nanos time) {
+    return write_seconds_with(p, time, write_uint);
 }
 
 // write_seconds for a column of times in order: their whole seconds change once in
@@ -117,16 +123,14 @@ inline char* write_seconds(char* p, Nanos time) {
 class SecondsWriter {
   public:
     char* write(char* p, Nanos time) {
-        if (!has_time(time) || time < 0) return write_seconds(p, time);
-        const std::uint64_t micros = (static_cast<std::uint64_t>(time) + 500) / 1000;
-        const std::uint64_t seconds = micros / 1'000'000;
-        if (seconds != seconds_) {
-            seconds_ = seconds;
-            size_ = static_cast<std::size_t>(write_uint(digits_.data(), seconds) - digits_.data());
-        }
-        p = write_text(p, std::string_view(digits_.data(), size_));
-        *p++ = '.';
-        return write_digits(p, micros % 1'000'000, 6);
+        return write_seconds_with(p, time, [this](char* q, std::uint64_t seconds) {
+            if (seconds != seconds_) {
+                seconds_ = seconds;
+                size_ =
+                    static_cast<std::size_t>(write_uint(digits_.data(), seconds) - digits_.data());
+            }
+            return write_text(q, std::string_view(digits_.data(), size_));
+        });
     }
 
   private:
