@@ -439,16 +439,15 @@ class CaptureReader final : public ChunkSource {
         }
         while (p < end && is_space(*p)) ++p;
         while (p < end) {
-            const int hi = hex_value(p[0]);
-            const int lo = p + 1 < end ? hex_value(p[1]) : -1;
-            if ((hi | lo) < 0 || (p + 2 < end && !is_space(p[2]))) {
+            const std::int64_t byte = p + 1 < end ? hex_pair(p) : -1;
+            if (byte < 0 || (p + 2 < end && !is_space(p[2]))) {
                 i = static_cast<std::size_t>(p - line.data());
                 e = token_end(line, i);
                 out.bytes.resize(static_cast<std::size_t>(next - first));
                 return fail(error_at(
                     i, fmt::format("bad hex byte {}", quote_token(line.substr(i, e - i)))));
             }
-            *next++ = static_cast<std::uint8_t>(hi << 4 | lo);
+            *next++ = static_cast<std::uint8_t>(byte);
             // Past the byte and the one separator checked above; more are rare.
             p += p + 2 < end ? 3 : 2;
             while (p < end && is_space(*p)) ++p;
