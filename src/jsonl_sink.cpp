@@ -160,8 +160,7 @@ class JsonlSink final : public RecordSink {
     }
 
     void flush() override {
-        out_.send();
-        std::fflush(out_.file());
+        out_.flush();
     }
 
     void end(const Totals& /*totals*/, const std::vector<std::string>& /*remarks*/) override {

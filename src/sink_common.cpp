@@ -1,11 +1,21 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cerrno>
+#include <system_error>
 
 #include "rtuscope/sinks.hpp"
 #include "text_append.hpp"
 
 namespace rtuscope {
+
+void throw_output_error(int error) {
+    throw std::system_error(error, std::generic_category(), "cannot write the output");
+}
+
+void flush_output(std::FILE* file) {
+    if (std::fflush(file) != 0) throw_output_error(errno);
+}
 
 void append_hex(std::string& out, std::span<const std::uint8_t> bytes, bool spaced) {
     append_with(out, 3 * bytes.size(), [&](char* p) { return write_hex(p, bytes, spaced); });

@@ -5,6 +5,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <cassert>
 #include <iterator>
 #include <limits>
@@ -319,8 +320,8 @@ class StatsSink final : public RecordSink {
     void end(const Totals& /*totals*/, const std::vector<std::string>& remarks) override {
         stats_.finish();
         const std::string text = render_stats(stats_, format_, remarks);
-        std::fwrite(text.data(), 1, text.size(), out_);
-        std::fflush(out_);
+        if (std::fwrite(text.data(), 1, text.size(), out_) != text.size()) throw_output_error(errno);
+        flush_output(out_);
     }
 
   private:

@@ -9,6 +9,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <array>
 #include <cstdint>
 #include <cstdio>
@@ -18,6 +19,7 @@
 #include <string>
 #include <string_view>
 
+#include "rtuscope/sinks.hpp"
 #include "rtuscope/time.hpp"
 
 namespace rtuscope {
@@ -335,7 +337,11 @@ class BlockOutput {
     explicit BlockOutput(std::FILE* file) : file_(file) {}
     BlockOutput(const BlockOutput&) = delete;
     BlockOutput& operator=(const BlockOutput&) = delete;
-    ~BlockOutput() { send(); }
+    // Cannot throw here: a failure is left in the file's error indicator, which main
+    // checks before it exits.
+    ~BlockOutput() {
+        if (used_ > 0) std::fwrite(block_.get(), 1, used_, file_);
+    }
 
     [[nodiscard]] std::FILE* file() const { return file_; }
 
@@ -357,10 +363,17 @@ class BlockOutput {
         line_.clear();
     }
 
+    // A write the file refuses throws (see flush_output).
     void send() {
         if (used_ == 0) return;
-        std::fwrite(block_.get(), 1, used_, file_);
+        const std::size_t pending = used_;
         used_ = 0;
+        if (std::fwrite(block_.get(), 1, pending, file_) != pending) throw_output_error(errno);
+    }
+    // What is pending, and then what stdio holds, to the system.
+    void flush() {
+        send();
+        flush_output(file_);
     }
 
   private:

@@ -130,8 +130,7 @@ class TextSink final : public RecordSink {
     }
 
     void flush() override {
-        out_.send();
-        std::fflush(out_.file());
+        out_.flush();
     }
 
     void end(const Totals& t, const std::vector<std::string>& remarks) override {
@@ -147,7 +146,7 @@ class TextSink final : public RecordSink {
                    "{} answers without request\n",
                    t.crc_bad, t.crc_swapped, t.unanswered, t.unsolicited);
         for (const std::string& remark : remarks) fmt::print(file, "-- note: {}\n", remark);
-        std::fflush(file);
+        flush_output(file);
     }
 
   private:

@@ -4,6 +4,8 @@
 // good one) and the value's notes.
 #include <fmt/format.h>
 
+#include <cerrno>
+
 #include "rtuscope/sinks.hpp"
 
 namespace rtuscope {
@@ -34,14 +36,16 @@ class ValuesCsvSink final : public RecordSink {
             line += ',';
             line += to_string(r.frame.crc.status);
             line += ',' + csv_field(ids) + ',' + csv_field(texts) + '\n';
-            std::fwrite(line.data(), 1, line.size(), out_);
+            if (std::fwrite(line.data(), 1, line.size(), out_) != line.size()) {
+                throw_output_error(errno);
+            }
         }
     }
 
-    void flush() override { std::fflush(out_); }
+    void flush() override { flush_output(out_); }
 
     void end(const Totals& /*totals*/, const std::vector<std::string>& /*remarks*/) override {
-        std::fflush(out_);
+        flush_output(out_);
     }
 
   private:

@@ -3,7 +3,9 @@
 #include <fmt/format.h>
 
 #include <CLI/CLI.hpp>
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <exception>
 
 #include "decode_command.hpp"
@@ -32,13 +34,24 @@ int run(int argc, char** argv) {
     return exit_code;
 }
 
+// What stdio still holds is written now, while a failure can be reported: a full disk
+// must not pass for a complete output with exit status 0. (The sinks' own blocks stop
+// the run at the first refused write; this catches what went through stdio alone.)
+int with_output_written(int exit_code) {
+    const int flush_error = std::fflush(stdout) == 0 ? 0 : errno;
+    if (flush_error == 0 && !std::ferror(stdout)) return exit_code;
+    std::fprintf(stderr, "rtuscope: error: cannot write the output: %s\n",
+                 flush_error != 0 ? std::strerror(flush_error) : "write error");
+    return 1;
+}
+
 }  // namespace
 
 // Nothing may escape main: an exception anywhere (out of memory, a library's) ends with
 // one line on stderr and exit status 1, never with std::terminate's abort.
 int main(int argc, char** argv) {
     try {
-        return run(argc, argv);
+        return with_output_written(run(argc, argv));
     } catch (const std::exception& e) {
         std::fprintf(stderr, "rtuscope: error: %s\n", e.what());
     } catch (...) {
