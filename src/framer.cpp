@@ -426,24 +426,9 @@ Framer::Search Framer::search_length(std::size_t at, bool at_end, bool confirm) 
         if (follows == Follows::unknown_yet) result.pending = true;
         return follows != Follows::nothing;
     };
-    // A frame's CRC checks when the CRC over all its bytes, its own CRC (low byte first)
-    // included, is 0: one test per length, no CRC bytes to read. Four lengths a step: each
-    // step waits for the one before (table lookups), so four bytes a step quarter that
-    // wait.
-    std::size_t done = kMinAdu - 1;
-    std::uint16_t crc = crc16_modbus(head.first(done));  // of `done` bytes
-    for (; done + 4 <= bound; done += 4) {
-        const auto after = crc16_modbus_each_of_4(crc, head.data() + done);
-        if ((after[0] == 0 && ends_search(done + 1)) || (after[1] == 0 && ends_search(done + 2)) ||
-            (after[2] == 0 && ends_search(done + 3)) || (after[3] == 0 && ends_search(done + 4))) {
-            return result;
-        }
-        crc = after[3];
-    }
-    for (; done < bound; ++done) {
-        crc = crc16_modbus_byte(crc, head[done]);
-        if (crc == 0 && ends_search(done + 1)) return result;
-    }
+    // Through garbage every byte starts a search over the same bytes: the index answers
+    // them all from one pass over the bytes (crc_end_index.hpp).
+    if (crc_ends_.find(bytes_, at, kMinAdu, bound, ends_search)) return result;
     result.pending = !at_end && bound == avail && avail < kMaxAdu;
     return result;
 }
@@ -521,6 +506,7 @@ void Framer::decide(bool at_end) {
     if (pos_ == bytes_.size() || pos_ > (1U << 16)) {
         const auto drop = static_cast<std::ptrdiff_t>(pos_);
         bytes_.erase(bytes_.begin(), bytes_.begin() + drop);
+        crc_ends_.clear();
         base_ += pos_;
         // Chunks wholly before the new start go; the one the start falls in stays.
         std::size_t keep = 0;

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "rtuscope/chunk.hpp"
+#include "rtuscope/crc_end_index.hpp"
 #include "rtuscope/expectation.hpp"
 #include "rtuscope/frame.hpp"
 #include "rtuscope/line_settings.hpp"
@@ -151,6 +152,8 @@ class Framer {
     // Bytes not yet emitted, from index `pos_` on; bytes_[0] is byte `base_` of the stream.
     std::vector<std::uint8_t> bytes_;
     std::uint64_t base_ = 0;
+    // Where frames could end by their CRC, for the length search (indexed on demand).
+    mutable CrcEndIndex crc_ends_;
     std::vector<Piece> pieces_;           // the chunks the buffered bytes came in, in order
     mutable std::size_t piece_hint_ = 0;  // where piece_of last looked: lookups go forward
     // Bytes the UART flagged (parity/framing), as buffer indices. Rare, so sparse.

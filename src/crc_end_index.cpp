@@ -1,0 +1,108 @@
+// The CRC end index's table and its indexing; see crc_end_index.hpp for the idea.
+#include "rtuscope/crc_end_index.hpp"
+
+#include <array>
+
+#include "rtuscope/crc.hpp"
+
+namespace rtuscope {
+namespace {
+
+constexpr std::uint32_t kCycle = 32767;  // the length of both cycles
+constexpr std::uint16_t kFixed = 0x7FFF;  // place of a fixed point (no cycle place is)
+
+// The classic byte table, again: crc.hpp's is not constexpr in this file.
+constexpr std::array<std::uint16_t, 256> make_byte_table() {
+    std::array<std::uint16_t, 256> table{};
+    for (unsigned i = 0; i < 256; ++i) {
+        auto reg = static_cast<std::uint16_t>(i);
+        for (int bit = 0; bit < 8; ++bit) {
+            reg = (reg & 1U) ? static_cast<std::uint16_t>((reg >> 1U) ^ 0xA001U)
+                             : static_cast<std::uint16_t>(reg >> 1U);
+        }
+        table[i] = reg;
+    }
+    return table;
+}
+
+using Places = std::array<std::uint16_t, 65536>;
+
+// Walks both cycles once, at compile time: 128 KiB of read-only data, paged in only by
+// inputs with lengths to search (a table made at run time cost a decode ~1 M
+// instructions and its page faults as soon as one search was indexed).
+constexpr Places make_places() {
+    constexpr auto byte_table = make_byte_table();
+    Places places{};
+    places[0] = kFixed;
+    places[0xC001] = 0x8000U | kFixed;
+    // 1 and 3 lie on different cycles (the unit test checks that each walk closes after
+    // kCycle steps and that together they cover every other value).
+    const std::uint16_t starts[2] = {1, 3};
+    for (std::uint16_t cycle = 0; cycle < 2; ++cycle) {
+        std::uint16_t reg = starts[cycle];
+        for (std::uint32_t place = 0; place < kCycle; ++place) {
+            places[reg] = static_cast<std::uint16_t>((cycle << 15U) | place);
+            reg = static_cast<std::uint16_t>((reg >> 8U) ^ byte_table[reg & 0xFFU]);  // a zero byte
+        }
+    }
+    return places;
+}
+
+constinit const Places kPlaces = make_places();
+
+// `place` (a register's) moved back by `shift` (< kCycle) places along its cycle; a fixed
+// point stays.
+std::uint16_t shifted(std::uint16_t place, std::uint32_t shift) {
+    const std::uint32_t on_cycle = place & kFixed;
+    if (on_cycle == kFixed) return place;
+    const std::uint32_t back = on_cycle >= shift ? on_cycle - shift : on_cycle + kCycle - shift;
+    return static_cast<std::uint16_t>((place & 0x8000U) | back);
+}
+
+}  // namespace
+
+std::uint16_t crc_cycle_place(std::uint16_t reg) {
+    return kPlaces[reg];
+}
+
+void CrcEndIndex::start_at(std::size_t at) {
+    from_ = at;
+    zero_runs_.assign(1, 0);
+    keys_.assign(1, kFixed);  // Z = 0, a fixed point
+}
+
+void CrcEndIndex::index_to(std::span<const std::uint8_t> bytes, std::size_t to) {
+    const std::size_t have = keys_.size();
+    const std::size_t want = to + 1 - from_;
+    if (want <= have) return;
+    zero_runs_.resize(want);
+    keys_.resize(want);
+    const Places& place = kPlaces;
+    std::uint16_t reg = zero_runs_[have - 1];
+    std::size_t i = have;
+    auto shift = static_cast<std::uint32_t>(i % kCycle);  // i's, counted up with i
+    auto add = [&](std::uint16_t run) {
+        zero_runs_[i] = run;
+        keys_[i] = shifted(place[run], shift);
+        ++i;
+        if (++shift == kCycle) shift = 0;
+    };
+    // Four bytes a step, as the CRC search did: each step waits only for the one before.
+    while (i + 4 <= want) {
+        const auto runs = crc16_modbus_each_of_4(reg, &bytes[from_ + i - 1]);
+        for (const std::uint16_t run : runs) add(run);
+        reg = runs[3];
+    }
+    while (i < want) {
+        reg = crc16_modbus_byte(reg, bytes[from_ + i - 1]);
+        add(reg);
+    }
+}
+
+std::uint16_t CrcEndIndex::target_of(std::size_t at) const {
+    const std::size_t i = at - from_;
+    const auto start = static_cast<std::uint16_t>(0xFFFFU ^ zero_runs_[i]);
+    return shifted(kPlaces[start], static_cast<std::uint32_t>(i % kCycle));
+}
+
+}  // namespace rtuscope
