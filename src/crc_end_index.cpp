@@ -77,13 +77,12 @@ void CrcEndIndex::index_to(std::span<const std::uint8_t> bytes, std::size_t to) 
     if (want <= have) return;
     zero_runs_.resize(want);
     keys_.resize(want);
-    const Places& place = kPlaces;
     std::uint16_t reg = zero_runs_[have - 1];
     std::size_t i = have;
     auto shift = static_cast<std::uint32_t>(i % kCycle);  // i's, counted up with i
     auto add = [&](std::uint16_t run) {
         zero_runs_[i] = run;
-        keys_[i] = shifted(place[run], shift);
+        keys_[i] = shifted(kPlaces[run], shift);
         ++i;
         if (++shift == kCycle) shift = 0;
     };
