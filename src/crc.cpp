@@ -11,14 +11,7 @@ namespace {
 // instead of eight dependent ones (about 3x faster on long frames, same results).
 constexpr detail::CrcTables make_tables() {
     detail::CrcTables tables{};
-    for (unsigned i = 0; i < 256; ++i) {
-        auto crc = static_cast<std::uint16_t>(i);
-        for (int bit = 0; bit < 8; ++bit) {
-            crc = (crc & 1U) ? static_cast<std::uint16_t>((crc >> 1) ^ 0xA001U)
-                             : static_cast<std::uint16_t>(crc >> 1);
-        }
-        tables[0][i] = crc;
-    }
+    tables[0] = detail::make_crc_byte_table();
     for (unsigned i = 0; i < 256; ++i) {
         for (std::size_t k = 1; k < 8; ++k) {
             const std::uint16_t prev = tables[k - 1][i];

@@ -11,27 +11,14 @@ namespace {
 constexpr std::uint32_t kCycle = 32767;  // the length of both cycles
 constexpr std::uint16_t kFixed = 0x7FFF;  // place of a fixed point (no cycle place is)
 
-// The classic byte table, again: crc.hpp's is not constexpr in this file.
-constexpr std::array<std::uint16_t, 256> make_byte_table() {
-    std::array<std::uint16_t, 256> table{};
-    for (unsigned i = 0; i < 256; ++i) {
-        auto reg = static_cast<std::uint16_t>(i);
-        for (int bit = 0; bit < 8; ++bit) {
-            reg = (reg & 1U) ? static_cast<std::uint16_t>((reg >> 1U) ^ 0xA001U)
-                             : static_cast<std::uint16_t>(reg >> 1U);
-        }
-        table[i] = reg;
-    }
-    return table;
-}
-
 using Places = std::array<std::uint16_t, 65536>;
 
 // Walks both cycles once, at compile time: 128 KiB of read-only data, paged in only by
 // inputs with lengths to search (a table made at run time cost a decode ~1 M
 // instructions and its page faults as soon as one search was indexed).
 constexpr Places make_places() {
-    constexpr auto byte_table = make_byte_table();
+    // kCrcTables is not a constant in this file: its byte table made again.
+    constexpr auto byte_table = detail::make_crc_byte_table();
     Places places{};
     places[0] = kFixed;
     places[0xC001] = 0x8000U | kFixed;

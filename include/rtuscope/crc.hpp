@@ -13,6 +13,21 @@ namespace detail {
 // Slicing-by-8 tables (see crc.cpp); [0] is the classic byte table.
 using CrcTables = std::array<std::array<std::uint16_t, 256>, 8>;
 extern const CrcTables kCrcTables;
+
+// The classic byte table: entry i is the register after byte i, bit by bit. Constexpr for
+// the tables made at compile time from it (kCrcTables, the CRC end index's).
+constexpr std::array<std::uint16_t, 256> make_crc_byte_table() {
+    std::array<std::uint16_t, 256> table{};
+    for (unsigned i = 0; i < 256; ++i) {
+        auto crc = static_cast<std::uint16_t>(i);
+        for (int bit = 0; bit < 8; ++bit) {
+            crc = (crc & 1U) ? static_cast<std::uint16_t>((crc >> 1) ^ 0xA001U)
+                             : static_cast<std::uint16_t>(crc >> 1);
+        }
+        table[i] = crc;
+    }
+    return table;
+}
 }  // namespace detail
 
 // One byte more, inline: for a search that checks the CRC after every byte.
