@@ -5,7 +5,6 @@
 #include <fmt/format.h>
 
 #include <algorithm>
-#include <cerrno>
 #include <cassert>
 #include <iterator>
 #include <limits>
@@ -320,7 +319,7 @@ class StatsSink final : public RecordSink {
     void end(const Totals& /*totals*/, const std::vector<std::string>& remarks) override {
         stats_.finish();
         const std::string text = render_stats(stats_, format_, remarks);
-        if (std::fwrite(text.data(), 1, text.size(), out_) != text.size()) throw_output_error(errno);
+        write_output(out_, text);
         flush_output(out_);
     }
 

@@ -9,7 +9,6 @@
 #include <fmt/format.h>
 
 #include <algorithm>
-#include <cerrno>
 #include <array>
 #include <cstdint>
 #include <cstdio>
@@ -368,7 +367,7 @@ class BlockOutput {
         if (used_ == 0) return;
         const std::size_t pending = used_;
         used_ = 0;
-        if (std::fwrite(block_.get(), 1, pending, file_) != pending) throw_output_error(errno);
+        write_output(file_, {block_.get(), pending});
     }
     // What is pending, and then what stdio holds, to the system.
     void flush() {

@@ -4,8 +4,6 @@
 // good one) and the value's notes.
 #include <fmt/format.h>
 
-#include <cerrno>
-
 #include "rtuscope/sinks.hpp"
 
 namespace rtuscope {
@@ -36,9 +34,7 @@ class ValuesCsvSink final : public RecordSink {
             line += ',';
             line += to_string(r.frame.crc.status);
             line += ',' + csv_field(ids) + ',' + csv_field(texts) + '\n';
-            if (std::fwrite(line.data(), 1, line.size(), out_) != line.size()) {
-                throw_output_error(errno);
-            }
+            write_output(out_, line);
         }
     }
 

@@ -29,12 +29,12 @@ std::unique_ptr<RecordSink> make_values_csv_sink(std::FILE* out);
 // fields and the register values; schema in README.md.
 std::unique_ptr<RecordSink> make_jsonl_sink(std::FILE* out);
 
-// Hands what stdio holds for `file` to the system. A write the file refuses (a full disk,
-// an I/O error) throws std::system_error ("cannot write the output: ..."), which ends the
-// run: decoding on into an output that is lost would end in a truncated file and exit
-// status 0.
+// Output to `file`, and what stdio holds for it handed to the system. A write the file
+// refuses (a full disk, an I/O error) throws std::system_error ("cannot write the output:
+// ..."), which ends the run: decoding on into an output that is lost would end in a
+// truncated file and exit status 0.
+void write_output(std::FILE* file, std::string_view text);
 void flush_output(std::FILE* file);
-[[noreturn]] void throw_output_error(int error);
 
 // Shared by the sinks, each also as append_*: sinks build every line in one reused
 // string, since a temporary string per field was a large part of a decode's time.
