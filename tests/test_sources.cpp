@@ -1,4 +1,5 @@
 #include <fcntl.h>
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
@@ -9,6 +10,7 @@
 #include <fstream>
 #include <limits>
 #include <optional>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -303,6 +305,51 @@ TEST(CaptureReader, DataLineErrorsPointAtTheBadToken) {
     EXPECT_EQ(error_text(capture("1.0 @ 01\n")), "cap.rtucap:2:5: empty channel tag \"@\"");
     // Non-printable bytes are escaped so the message stays one readable line.
     EXPECT_EQ(error_text(capture("1.0 0\x01\n")), "cap.rtucap:2:5: bad hex byte \"0\\x01\"");
+}
+
+// Long lines are read eight bytes at a time, then one by one, the second loop taking over
+// at every length and at the first character the first does not take: every length must
+// give its bytes, and a bad character anywhere the error a byte at a time gives.
+TEST(CaptureReader, EveryLineLengthAndEveryBadCharacterPlace) {
+    std::mt19937 random(7);
+    for (std::size_t n = 1; n <= 70; ++n) {
+        Bytes bytes(n);
+        std::string hex;
+        for (std::size_t k = 0; k < n; ++k) {
+            bytes[k] = static_cast<std::uint8_t>(random());
+            hex += k % 2 == 0 ? fmt::format("{:02X}", bytes[k]) : fmt::format("{:02x}", bytes[k]);
+            if (k + 1 < n) hex += ' ';
+        }
+        for (const char* ending : {"\n", " \n", "\r\n"}) {
+            Drained d = read_all(capture("1.5 " + hex + ending), InputFormat::capture);
+            ASSERT_FALSE(d.error) << d.error->to_string();
+            ASSERT_EQ(d.chunks.size(), 1U);
+            EXPECT_EQ(d.chunks[0].bytes, bytes) << n << " bytes";
+        }
+        for (std::size_t at = 0; at < hex.size(); ++at) {
+            const bool separator = at % 3 == 2;
+            if (separator) {
+                std::string tabbed = hex;
+                tabbed[at] = '\t';
+                Drained d = read_all(capture("1.5 " + tabbed + "\n"), InputFormat::capture);
+                ASSERT_FALSE(d.error) << d.error->to_string();
+                ASSERT_EQ(d.chunks.size(), 1U);
+                EXPECT_EQ(d.chunks[0].bytes, bytes) << n << " bytes, tab at " << at;
+            }
+            for (const char bad : {'G', 'g', '/', ':', '@', '`', 'x', '\x80', '\xC1'}) {
+                if (at == 0 && bad == '@') continue;  // a channel tag ("@B 01 ...")
+                std::string broken = hex;
+                broken[at] = bad;
+                // The token of the byte the character belongs to (the byte before a
+                // separator), at its column: "1.5 " is four.
+                const std::size_t column = 4 + at - at % 3 + 1;
+                EXPECT_TRUE(error_text(capture("1.5 " + broken + "\n"))
+                                .starts_with(fmt::format("cap.rtucap:2:{}: bad hex byte \"", column)))
+                    << n << " bytes, " << int{bad} << " at " << at << ": "
+                    << error_text(capture("1.5 " + broken + "\n"));
+            }
+        }
+    }
 }
 
 TEST(CaptureReader, ChunksBeforeAnErrorAreDeliveredAndTheErrorSticks) {
