@@ -3,13 +3,13 @@
 #include <fmt/format.h>
 
 #include <CLI/CLI.hpp>
-#include <cerrno>
 #include <cstdio>
-#include <cstring>
 #include <exception>
+#include <stdexcept>
 
 #include "decode_command.hpp"
 #include "profiles_command.hpp"
+#include "rtuscope/sinks.hpp"
 #include "sniff_command.hpp"
 
 namespace {
@@ -36,13 +36,13 @@ int run(int argc, char** argv) {
 
 // What stdio still holds is written now, while a failure can be reported: a full disk
 // must not pass for a complete output with exit status 0. (The sinks' own blocks stop
-// the run at the first refused write; this catches what went through stdio alone.)
+// the run at the first refused write; this catches what went through stdio alone.) A
+// refused flush throws, as in the sinks; a write refused where nothing could throw (an
+// output block's destructor) is left in the file's error indicator.
 int with_output_written(int exit_code) {
-    const int flush_error = std::fflush(stdout) == 0 ? 0 : errno;
-    if (flush_error == 0 && !std::ferror(stdout)) return exit_code;
-    std::fprintf(stderr, "rtuscope: error: cannot write the output: %s\n",
-                 flush_error != 0 ? std::strerror(flush_error) : "write error");
-    return 1;
+    rtuscope::flush_output(stdout);
+    if (std::ferror(stdout) != 0) throw std::runtime_error("cannot write the output: write error");
+    return exit_code;
 }
 
 }  // namespace
