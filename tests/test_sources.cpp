@@ -311,6 +311,12 @@ TEST(CaptureReader, DataLineErrorsPointAtTheBadToken) {
 // at every length and at the first character the first does not take: every length must
 // give its bytes, and a bad character anywhere the error a byte at a time gives.
 TEST(CaptureReader, EveryLineLengthAndEveryBadCharacterPlace) {
+    auto expect_bytes = [](const std::string& line, const Bytes& bytes, const std::string& how) {
+        Drained d = read_all(capture("1.5 " + line), InputFormat::capture);
+        ASSERT_FALSE(d.error) << d.error->to_string();
+        ASSERT_EQ(d.chunks.size(), 1U);
+        EXPECT_EQ(d.chunks[0].bytes, bytes) << bytes.size() << " bytes, " << how;
+    };
     std::mt19937 random(7);
     for (std::size_t n = 1; n <= 70; ++n) {
         Bytes bytes(n);
@@ -321,20 +327,13 @@ TEST(CaptureReader, EveryLineLengthAndEveryBadCharacterPlace) {
             if (k + 1 < n) hex += ' ';
         }
         for (const char* ending : {"\n", " \n", "\r\n"}) {
-            Drained d = read_all(capture("1.5 " + hex + ending), InputFormat::capture);
-            ASSERT_FALSE(d.error) << d.error->to_string();
-            ASSERT_EQ(d.chunks.size(), 1U);
-            EXPECT_EQ(d.chunks[0].bytes, bytes) << n << " bytes";
+            expect_bytes(hex + ending, bytes, "as written");
         }
         for (std::size_t at = 0; at < hex.size(); ++at) {
-            const bool separator = at % 3 == 2;
-            if (separator) {
+            if (at % 3 == 2) {  // a separator
                 std::string tabbed = hex;
                 tabbed[at] = '\t';
-                Drained d = read_all(capture("1.5 " + tabbed + "\n"), InputFormat::capture);
-                ASSERT_FALSE(d.error) << d.error->to_string();
-                ASSERT_EQ(d.chunks.size(), 1U);
-                EXPECT_EQ(d.chunks[0].bytes, bytes) << n << " bytes, tab at " << at;
+                expect_bytes(tabbed + "\n", bytes, fmt::format("tab at {}", at));
             }
             for (const char bad : {'G', 'g', '/', ':', '@', '`', 'x', '\x80', '\xC1'}) {
                 if (at == 0 && bad == '@') continue;  // a channel tag ("@B 01 ...")
@@ -343,10 +342,10 @@ TEST(CaptureReader, EveryLineLengthAndEveryBadCharacterPlace) {
                 // The token of the byte the character belongs to (the byte before a
                 // separator), at its column: "1.5 " is four.
                 const std::size_t column = 4 + at - at % 3 + 1;
-                EXPECT_TRUE(error_text(capture("1.5 " + broken + "\n"))
-                                .starts_with(fmt::format("cap.rtucap:2:{}: bad hex byte \"", column)))
-                    << n << " bytes, " << int{bad} << " at " << at << ": "
-                    << error_text(capture("1.5 " + broken + "\n"));
+                const std::string error = error_text(capture("1.5 " + broken + "\n"));
+                EXPECT_TRUE(
+                    error.starts_with(fmt::format("cap.rtucap:2:{}: bad hex byte \"", column)))
+                    << n << " bytes, " << int{bad} << " at " << at << ": " << error;
             }
         }
     }
