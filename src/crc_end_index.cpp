@@ -1,6 +1,7 @@
 // The CRC end index's table and its indexing; see crc_end_index.hpp for the idea.
 #include "rtuscope/crc_end_index.hpp"
 
+#include <algorithm>
 #include <array>
 
 #include "rtuscope/crc.hpp"
@@ -52,7 +53,31 @@ std::uint16_t crc_cycle_place(std::uint16_t reg) {
     return kPlaces[reg];
 }
 
+bool CrcEndIndex::may_hold(std::span<const std::uint8_t> bytes, std::uint16_t target,
+                           std::size_t from, std::size_t to) {
+    if (to - from > kMaxWindow) return true;
+    if (counts_.empty()) counts_.resize(65536);
+    // Searches through garbage follow each other a byte apart: indexed a block ahead,
+    // not a byte or two a call.
+    if (to - 1 - from_ >= keys_.size()) index_to(bytes, std::min(bytes.size(), to - 1 + kMaxWindow));
+    if (from < window_from_ || from > window_to_) {
+        empty_window();
+        window_from_ = window_to_ = from;
+    }
+    // Slid forward to start at `from` and to reach `to` at least: it then covers no more
+    // than the longer of this search and the last one (kMaxWindow at most).
+    for (; window_from_ < from; ++window_from_) --counts_[keys_[window_from_ - from_]];
+    for (; window_to_ < to; ++window_to_) ++counts_[keys_[window_to_ - from_]];
+    return counts_[target] != 0;
+}
+
+void CrcEndIndex::empty_window() {
+    for (std::size_t k = window_from_; k < window_to_; ++k) --counts_[keys_[k - from_]];
+    window_from_ = window_to_ = 0;
+}
+
 void CrcEndIndex::start_at(std::size_t at) {
+    empty_window();
     from_ = at;
     zero_runs_.assign(1, 0);
     keys_.assign(1, kFixed);  // Z = 0, a fixed point

@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdint>
 #include <random>
 #include <vector>
@@ -150,6 +151,62 @@ TEST(CrcEndIndex, ASearchInsideASearchLeavesItWhole) {
         });
         EXPECT_EQ(outer, checked_lengths(bytes, at, 4, 256)) << at;
     }
+}
+
+// Through garbage a search that finds nothing is answered from a count of the keys in a
+// window that slides along with the searches: a length at either edge of a search, with
+// the window left by the searches before it (a byte back, from later starts, around a
+// hit) and of every size from one key to a whole ADU, must still be found.
+TEST(CrcEndIndex, FindsLengthsAtTheEdgesOfEverySearch) {
+    std::mt19937 random(11);
+    const std::vector<std::uint8_t> bytes = test_bytes(random, 4000);
+    CrcEndIndex index;
+    auto lengths_from = [&](std::size_t at, std::size_t first, std::size_t last) {
+        std::vector<std::size_t> lengths;
+        index.find(bytes, at, first, last, [&](std::size_t n) {
+            lengths.push_back(n);
+            return false;
+        });
+        return lengths;
+    };
+    std::size_t edges = 0;
+    for (std::size_t at = 0; at + 4 <= bytes.size(); ++at) {
+        const std::size_t most = std::min<std::size_t>(256, bytes.size() - at);
+        const std::vector<std::size_t> all = checked_lengths(bytes, at, 4, most);
+        // A window ending on the first length, one starting on the last, one of just it.
+        const std::size_t shortest = all.empty() ? 4 + random() % (most - 3) : all.front();
+        ASSERT_EQ(lengths_from(at, 4, shortest), checked_lengths(bytes, at, 4, shortest)) << at;
+        const std::size_t longest = all.empty() ? shortest : all.back();
+        ASSERT_EQ(lengths_from(at, longest, most), checked_lengths(bytes, at, longest, most))
+            << at;
+        ASSERT_EQ(lengths_from(at, longest, longest),
+                  checked_lengths(bytes, at, longest, longest))
+            << at;
+        edges += all.size();
+        // What follows a frame is searched from its end, and then a start a byte back.
+        if (random() % 3 == 0) {
+            const std::size_t later = std::min(bytes.size() - 4, at + 1 + random() % 300);
+            const std::size_t last = std::min<std::size_t>(256, bytes.size() - later);
+            ASSERT_EQ(lengths_from(later, 4, last), checked_lengths(bytes, later, 4, last))
+                << later;
+        }
+        // Garbage further on: the index starts over there, and again back here.
+        if (random() % 40 == 0) {
+            const std::size_t far = std::min(bytes.size() - 4, at + 500 + random() % 1000);
+            for (std::size_t start = far; start < std::min(bytes.size() - 3, far + 6); ++start) {
+                const std::size_t last = std::min<std::size_t>(256, bytes.size() - start);
+                ASSERT_EQ(lengths_from(start, 4, last), checked_lengths(bytes, start, 4, last))
+                    << start;
+            }
+        }
+        if (at > 0 && random() % 5 == 0) {
+            ASSERT_EQ(lengths_from(at - 1, 4, std::min<std::size_t>(256, bytes.size() - at + 1)),
+                      checked_lengths(bytes, at - 1, 4,
+                                      std::min<std::size_t>(256, bytes.size() - at + 1)))
+                << at - 1;
+        }
+    }
+    EXPECT_GT(edges, 100U);  // the planted frames and the runs of zeros and FF
 }
 
 }  // namespace

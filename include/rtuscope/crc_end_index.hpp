@@ -13,7 +13,8 @@
 // the cycles). Numbering each cycle's values along it, A^n moves a value n places on its
 // cycle, so the test becomes key(at + n) == target(at), where key(k) is Z(k)'s cycle and its
 // place on it less k. Keys are worked out once per byte for all starts, and a search is a
-// scan of them for one number, eight at a time.
+// scan of them for one number, eight at a time, made only when a count of the keys in a
+// window sliding along with the searches says the number is there (garbage: rarely).
 #pragma once
 
 #include <algorithm>
@@ -30,6 +31,7 @@ class CrcEndIndex {
   public:
     // The bytes were moved or replaced: what was indexed is forgotten.
     void clear() {
+        empty_window();
         zero_runs_.clear();
         keys_.clear();
         unfound_ = 0;
@@ -59,6 +61,7 @@ class CrcEndIndex {
         }
         index_to(bytes, at);
         const std::uint16_t target = target_of(at);
+        if (!may_hold(bytes, target, at + first, at + last + 1)) return false;
         std::size_t k = at + first;
         const std::size_t end = at + last + 1;
         // Indexed a block ahead of the scan, not to `last` at once: most searches outside
@@ -120,6 +123,14 @@ class CrcEndIndex {
         return (halves[0] | halves[1]) != 0;
     }
 
+    // Whether a key in [from, to) may equal `target`: false only when none does. Through
+    // garbage nearly every search finds nothing, and a scan of up to 253 keys per byte was
+    // most of the framer's work there; a count per key value over a window of the keys
+    // that slides along with the searches answers it by one look. A search back before
+    // the window (or longer than it can be) is answered "may" and scanned.
+    bool may_hold(std::span<const std::uint8_t> bytes, std::uint16_t target, std::size_t from,
+                  std::size_t to);
+    void empty_window();
     // Starts the index afresh at `at`.
     void start_at(std::size_t at);
     // Indexes the bytes up to `to`, inclusive (`to` at most bytes.size()).
@@ -133,6 +144,12 @@ class CrcEndIndex {
     // and where the last one ended.
     std::size_t unfound_ = 0;
     std::size_t unfound_to_ = 0;
+    // How many keys of [window_from_, window_to_) have each value (made on first use:
+    // 64 KiB). A window is never longer than kMaxWindow keys, so a count fits a byte.
+    static constexpr std::size_t kMaxWindow = 255;
+    std::vector<std::uint8_t> counts_;
+    std::size_t window_from_ = 0;
+    std::size_t window_to_ = 0;
 };
 
 // The cycle and place of a register value under the zero-byte step (for the unit test):
