@@ -59,7 +59,9 @@ bool CrcEndIndex::may_hold(std::span<const std::uint8_t> bytes, std::uint16_t ta
     if (counts_.empty()) counts_.resize(65536);
     // Searches through garbage follow each other a byte apart: indexed a block ahead,
     // not a byte or two a call.
-    if (to - 1 - from_ >= keys_.size()) index_to(bytes, std::min(bytes.size(), to - 1 + kMaxWindow));
+    if (to - 1 - from_ >= keys_.size()) {
+        index_to(bytes, std::min(bytes.size(), to - 1 + kMaxWindow));
+    }
     if (from < window_from_ || from > window_to_) {
         empty_window();
         window_from_ = window_to_ = from;

@@ -177,10 +177,8 @@ TEST(CrcEndIndex, FindsLengthsAtTheEdgesOfEverySearch) {
         const std::size_t shortest = all.empty() ? 4 + random() % (most - 3) : all.front();
         ASSERT_EQ(lengths_from(at, 4, shortest), checked_lengths(bytes, at, 4, shortest)) << at;
         const std::size_t longest = all.empty() ? shortest : all.back();
-        ASSERT_EQ(lengths_from(at, longest, most), checked_lengths(bytes, at, longest, most))
-            << at;
-        ASSERT_EQ(lengths_from(at, longest, longest),
-                  checked_lengths(bytes, at, longest, longest))
+        ASSERT_EQ(lengths_from(at, longest, most), checked_lengths(bytes, at, longest, most)) << at;
+        ASSERT_EQ(lengths_from(at, longest, longest), checked_lengths(bytes, at, longest, longest))
             << at;
         edges += all.size();
         // What follows a frame is searched from its end, and then a start a byte back.

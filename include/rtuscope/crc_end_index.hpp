@@ -126,8 +126,9 @@ class CrcEndIndex {
     // Whether a key in [from, to) may equal `target`: false only when none does. Through
     // garbage nearly every search finds nothing, and a scan of up to 253 keys per byte was
     // most of the framer's work there; a count per key value over a window of the keys
-    // that slides along with the searches answers it by one look. A search back before
-    // the window (or longer than it can be) is answered "may" and scanned.
+    // that slides along with the searches answers it by one look. A search that starts
+    // before the window or past its end starts it afresh there; one longer than a window
+    // can be is answered "may" and scanned.
     bool may_hold(std::span<const std::uint8_t> bytes, std::uint16_t target, std::size_t from,
                   std::size_t to);
     void empty_window();
