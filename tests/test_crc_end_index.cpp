@@ -198,9 +198,8 @@ TEST(CrcEndIndex, FindsLengthsAtTheEdgesOfEverySearch) {
             }
         }
         if (at > 0 && random() % 5 == 0) {
-            ASSERT_EQ(lengths_from(at - 1, 4, std::min<std::size_t>(256, bytes.size() - at + 1)),
-                      checked_lengths(bytes, at - 1, 4,
-                                      std::min<std::size_t>(256, bytes.size() - at + 1)))
+            const std::size_t last = std::min<std::size_t>(256, bytes.size() - at + 1);
+            ASSERT_EQ(lengths_from(at - 1, 4, last), checked_lengths(bytes, at - 1, 4, last))
                 << at - 1;
         }
     }
