@@ -2,7 +2,7 @@
 // whole input into memory first so that only the framer (and, for a capture, the capture
 // parser) is timed.
 //
-//   rtuscope_bench_frame FILE [raw|capture|scan|crc] [repeat]
+//   rtuscope_bench_frame FILE [raw|capture|scan|crc] [REPEAT]
 //
 // `scan` times no framer but what its core costs by itself: a raw dump walked by the
 // standard rules' lengths, both readings' CRCs checked at each position, with no record
@@ -15,12 +15,14 @@
 // the frame and building its record.
 #include <fmt/format.h>
 
+#include <CLI/CLI.hpp>
+
 #include <algorithm>
 #include <chrono>
 #include <cstdint>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
-#include <iterator>
 #include <span>
 #include <string>
 #include <utility>
@@ -72,7 +74,7 @@ void frame_all(rtuscope::ChunkSource& source, rtuscope::Framer& framer) {
 
 // Where each frame (valid or not) of a raw dump lies, by the framer: offset and length.
 std::vector<std::pair<std::size_t, std::size_t>> frame_spans(const std::string& content,
-                                                             const char* name) {
+                                                             const std::string& name) {
     std::vector<std::pair<std::size_t, std::size_t>> spans;
     auto source = rtuscope::source_from_memory(content, name, rtuscope::InputFormat::raw);
     if (!source) return spans;
@@ -101,18 +103,35 @@ double best_time(int repeat, Run run) {
 }  // namespace
 
 int main(int argc, char** argv) {
-    if (argc < 2) {
-        fmt::print(stderr, "usage: rtuscope_bench_frame FILE [raw|capture|scan|crc] [repeat]\n");
-        return 2;
+    std::string path;
+    std::string mode = "raw";
+    int repeat = 1;
+    CLI::App app{"rtuscope_bench_frame: framing + CRC alone, the input read into memory first"};
+    app.add_option("file", path, "raw dump (raw, scan, crc) or native capture (capture)")
+        ->required()
+        ->check(CLI::ExistingFile);
+    app.add_option("mode", mode, "raw, capture, scan or crc (see bench/frame_tool.cpp)")
+        ->capture_default_str()
+        ->check(CLI::IsMember({"raw", "capture", "scan", "crc"}));
+    app.add_option("repeat", repeat, "runs to take the best of")
+        ->capture_default_str()
+        ->check(CLI::Range(1, 1000));
+    CLI11_PARSE(app, argc, argv);
+
+    std::string content;
+    std::error_code error;
+    const auto size = std::filesystem::file_size(path, error);
+    std::ifstream in(path, std::ios::binary);
+    if (!error) content.resize(size);
+    if (error || !in.read(content.data(), static_cast<std::streamsize>(content.size()))) {
+        fmt::print(stderr, "rtuscope_bench_frame: cannot read {}: {}\n", path,
+                   error ? error.message() : "read error");
+        return 1;
     }
-    std::ifstream in(argv[1], std::ios::binary);
-    const std::string content((std::istreambuf_iterator<char>(in)), {});
-    const std::string mode = argc > 2 ? argv[2] : "raw";
-    const int repeat = argc > 3 ? std::stoi(argv[3]) : 1;
     const auto bytes =
         std::span(reinterpret_cast<const std::uint8_t*>(content.data()), content.size());
     if (mode == "crc") {
-        const auto spans = frame_spans(content, argv[1]);
+        const auto spans = frame_spans(content, path);
         std::uint64_t ok = 0;
         const double best = best_time(repeat, [&] {
             ok = 0;
@@ -143,7 +162,7 @@ int main(int argc, char** argv) {
     std::uint64_t bad = 0;
     for (int r = 0; r < repeat; ++r) {
         // The copy into the source is not timed.
-        auto source = rtuscope::source_from_memory(content, argv[1], format);
+        auto source = rtuscope::source_from_memory(content, path, format);
         if (!source) {
             fmt::print(stderr, "{}\n", source.error().message);
             return 1;

@@ -4,6 +4,8 @@
 //   rtuscope_bench_gen [--frames N] [--seed S] [--baud B] [--capture FILE] [--raw FILE]
 #include <fmt/format.h>
 
+#include <CLI/CLI.hpp>
+
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -37,29 +39,25 @@ int main(int argc, char** argv) {
     rtuscope::bench::TrafficOptions options;
     std::string capture_path;
     std::string raw_path;
-    for (int i = 1; i + 1 < argc; i += 2) {
-        const std::string key = argv[i];
-        const char* value = argv[i + 1];
-        if (key == "--frames") {
-            options.frames = std::strtoull(value, nullptr, 10);
-        } else if (key == "--seed") {
-            options.seed = std::strtoull(value, nullptr, 10);
-        } else if (key == "--baud") {
-            options.baud = static_cast<std::uint32_t>(std::strtoul(value, nullptr, 10));
-        } else if (key == "--capture") {
-            capture_path = value;
-        } else if (key == "--raw") {
-            raw_path = value;
-        } else {
-            fmt::print(stderr, "rtuscope_bench_gen: unknown option {}\n", key);
-            return 2;
+    CLI::App app{"rtuscope_bench_gen: writes realistic traffic of the four seed devices and "
+                 "standard devices (bench/traffic.hpp) as a native capture and/or a raw dump"};
+    app.add_option("--frames", options.frames, "frames to generate")
+        ->capture_default_str()
+        ->check(CLI::Range(std::uint64_t{1}, std::uint64_t{10'000'000'000}));
+    app.add_option("--seed", options.seed, "seed of the traffic's random choices")
+        ->capture_default_str();
+    app.add_option("--baud", options.baud, "line speed the timing follows")
+        ->capture_default_str()
+        ->check(CLI::Range(std::uint32_t{300}, std::uint32_t{4'000'000}));
+    app.add_option("--capture", capture_path, "native capture to write");
+    app.add_option("--raw", raw_path, "raw dump (the bytes alone) to write");
+    try {
+        app.parse(argc, argv);
+        if (capture_path.empty() && raw_path.empty()) {
+            throw CLI::RequiredError("--capture FILE or --raw FILE (nothing to write)");
         }
-    }
-    if (argc % 2 == 0 || options.baud == 0) {
-        fmt::print(stderr,
-                   "usage: rtuscope_bench_gen [--frames N] [--seed S] [--baud B] "
-                   "[--capture FILE] [--raw FILE]\n");
-        return 2;
+    } catch (const CLI::ParseError& e) {
+        return app.exit(e);
     }
     File capture = open_out(capture_path);
     File raw = open_out(raw_path);
