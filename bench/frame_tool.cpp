@@ -128,10 +128,18 @@ int main(int argc, char** argv) {
                    error ? error.message() : "read error");
         return 1;
     }
+    if (content.empty()) {
+        fmt::print(stderr, "rtuscope_bench_frame: {} is empty: nothing to time\n", path);
+        return 1;
+    }
     const auto bytes =
         std::span(reinterpret_cast<const std::uint8_t*>(content.data()), content.size());
     if (mode == "crc") {
         const auto spans = frame_spans(content, path);
+        if (spans.empty()) {
+            fmt::print(stderr, "rtuscope_bench_frame: no frames in {}: no CRCs to time\n", path);
+            return 1;
+        }
         std::uint64_t ok = 0;
         const double best = best_time(repeat, [&] {
             ok = 0;
