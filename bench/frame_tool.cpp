@@ -87,16 +87,19 @@ std::vector<std::pair<std::size_t, std::size_t>> frame_spans(const std::string& 
     return spans;
 }
 
+// Seconds `run` takes.
+template <class Run>
+double seconds_of(Run run) {
+    const auto t0 = std::chrono::steady_clock::now();
+    run();
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
 // Best of `repeat` timings of `run`, in seconds.
 template <class Run>
 double best_time(int repeat, Run run) {
     double best = 1e300;
-    for (int r = 0; r < repeat; ++r) {
-        const auto t0 = std::chrono::steady_clock::now();
-        run();
-        best = std::min(
-            best, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
-    }
+    for (int r = 0; r < repeat; ++r) best = std::min(best, seconds_of(run));
     return best;
 }
 
@@ -183,11 +186,7 @@ int main(int argc, char** argv) {
             frames += f.cls == rtuscope::RecordClass::frame;
             bad += f.cls == rtuscope::RecordClass::invalid;
         });
-        const auto t0 = std::chrono::steady_clock::now();
-        frame_all(**source, framer);
-        const double s =
-            std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-        best = std::min(best, s);
+        best = std::min(best, seconds_of([&] { frame_all(**source, framer); }));
     }
     fmt::print("{} {} bytes, {} frames ok, {} invalid: {:.3f} s, {:.1f} MB/s, {:.2f} M frames/s\n",
                mode, content.size(), frames, bad, best,
