@@ -61,8 +61,7 @@ int main(int argc, char** argv) {
     }
     File capture = open_out(capture_path);
     File raw = open_out(raw_path);
-    if (capture)
-        fmt::print(capture.get(), "# rtuscope capture v1\n# serial {} 8N1\n", options.baud);
+    if (capture) fmt::print(capture.get(), "{}", rtuscope::bench::capture_header(options));
     const auto stats = rtuscope::bench::generate_traffic(options, [&](const rtuscope::Chunk& c) {
         if (capture) {
             const std::string line = rtuscope::capture_line(c);

@@ -4,7 +4,6 @@
 #include <string>
 #include <vector>
 
-#include "rtuscope/capture_writer.hpp"
 #include "rtuscope/crc.hpp"
 #include "rtuscope/framer.hpp"
 #include "rtuscope/sources.hpp"
@@ -13,22 +12,11 @@
 namespace {
 
 // 100,000 frames of the benchmark traffic, in both forms, generated once.
-struct Data {
-    std::string capture;
-    std::string raw;
-};
-
-const Data& data() {
-    static const Data d = [] {
-        Data out;
-        out.capture = "# rtuscope capture v1\n# serial 115200 8N1\n";
+const rtuscope::bench::TrafficInMemory& data() {
+    static const rtuscope::bench::TrafficInMemory d = [] {
         rtuscope::bench::TrafficOptions options;
         options.frames = 100'000;
-        rtuscope::bench::generate_traffic(options, [&](const rtuscope::Chunk& c) {
-            out.capture += rtuscope::capture_line(c);
-            out.raw.append(c.bytes.begin(), c.bytes.end());
-        });
-        return out;
+        return rtuscope::bench::traffic_in_memory(options);
     }();
     return d;
 }

@@ -1,8 +1,11 @@
 #include "traffic.hpp"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <vector>
 
+#include "rtuscope/capture_writer.hpp"
 #include "rtuscope/crc.hpp"
 #include "rtuscope/time.hpp"
 
@@ -242,7 +245,8 @@ class Adapter {
 }  // namespace
 
 TrafficStats generate_traffic(const TrafficOptions& options,
-                              const std::function<void(const Chunk&)>& on_chunk) {
+                              const std::function<void(const Chunk&)>& on_chunk,
+                              const std::function<void(const SentFrame&)>& on_sent) {
     TrafficStats stats;
     Rng rng(options.seed);
     Adapter adapter(rng, on_chunk, stats);
@@ -251,11 +255,12 @@ TrafficStats generate_traffic(const TrafficOptions& options,
     const Nanos t35 = options.baud > 19200 ? 1'750'000 : 35 * char_time / 10;
     Nanos now = Nanos{1763798400} * kNanosPerSecond;
 
-    auto send = [&](const Bytes& frame) {
+    auto send = [&](const Bytes& frame, SentFrame::What what, bool damaged = false) {
         for (const std::uint8_t b : frame) {
             now += char_time;
             adapter.byte(b, now);
         }
+        if (on_sent) on_sent({what, frame, damaged});
     };
 
     while (stats.frames < options.frames) {
@@ -275,29 +280,52 @@ TrafficStats generate_traffic(const TrafficOptions& options,
         auto any_byte = [&](const Bytes& b) {
             return rng.range(0, static_cast<std::uint32_t>(b.size() - 1));
         };
-        if (rng.chance(5)) t.request[any_byte(t.request)] ^= 0x10;
-        if (!t.answer.empty() && rng.chance(5)) t.answer[any_byte(t.answer)] ^= 0x04;
+        const bool request_damaged = rng.chance(5);
+        if (request_damaged) t.request[any_byte(t.request)] ^= 0x10;
+        const bool answer_damaged = !t.answer.empty() && rng.chance(5);
+        if (answer_damaged) t.answer[any_byte(t.answer)] ^= 0x04;
 
-        send(t.request);
+        send(t.request, SentFrame::What::request, request_damaged);
         ++stats.frames;
         if (!t.answer.empty()) {
             now += t.turnaround;
-            send(t.answer);
+            send(t.answer, SentFrame::What::answer, answer_damaged);
             ++stats.frames;
             // The slave's RS-485 driver switching off leaves a junk byte behind.
-            if (rng.chance(3)) send({rng.chance(500) ? std::uint8_t{0x00} : std::uint8_t{0xFF}});
+            if (rng.chance(3)) {
+                send({rng.chance(500) ? std::uint8_t{0x00} : std::uint8_t{0xFF}},
+                     SentFrame::What::junk);
+            }
         }
         if (rng.chance(2)) {  // line noise between transactions
             now += t35;
             Bytes noise(rng.range(1, 4));
             for (auto& b : noise) b = rng.byte();
-            send(noise);
+            send(noise, SentFrame::What::noise);
         }
         // The master polls again after t3.5 plus its own processing time.
         now += t35 + rng.range(0, options.baud > 19200 ? 1'000'000 : 10'000'000);
     }
     adapter.finish();
     return stats;
+}
+
+std::string capture_header(const TrafficOptions& options) {
+    return fmt::format("# rtuscope capture v1\n# serial {} 8N1\n", options.baud);
+}
+
+TrafficInMemory traffic_in_memory(const TrafficOptions& options,
+                                  const std::function<void(const SentFrame&)>& on_sent) {
+    TrafficInMemory out;
+    out.capture = capture_header(options);
+    out.stats = generate_traffic(
+        options,
+        [&](const Chunk& c) {
+            out.capture += capture_line(c);
+            out.raw.append(c.bytes.begin(), c.bytes.end());
+        },
+        on_sent);
+    return out;
 }
 
 }  // namespace rtuscope::bench

@@ -5,6 +5,8 @@
 
 #include <cstdint>
 #include <functional>
+#include <string>
+#include <vector>
 
 #include "rtuscope/chunk.hpp"
 
@@ -22,9 +24,38 @@ struct TrafficStats {
     std::uint64_t chunks = 0;
 };
 
+// What the generator put on the line, in order: the truth a decode of the traffic is
+// checked against (tests/test_bench_traffic.cpp).
+struct SentFrame {
+    enum class What : std::uint8_t {
+        request,  // broadcasts too
+        answer,   // exceptions too
+        junk,     // the byte a slave's driver leaves behind
+        noise,    // line noise between transactions
+    };
+    What what = What::request;
+    std::vector<std::uint8_t> bytes;  // as on the line, damage included
+    bool damaged = false;             // a bit flipped on the line: its CRC cannot check
+};
+
 // Calls `on_chunk` for every chunk in time order. Chunks carry the time their last byte
-// was handed over, like `rtuscope sniff -w` records them.
+// was handed over, like `rtuscope sniff -w` records them. `on_sent`, when given, hears of
+// every frame and run of junk or noise as it goes on the line.
 TrafficStats generate_traffic(const TrafficOptions& options,
-                              const std::function<void(const Chunk&)>& on_chunk);
+                              const std::function<void(const Chunk&)>& on_chunk,
+                              const std::function<void(const SentFrame&)>& on_sent = {});
+
+// The header of the traffic's native capture.
+std::string capture_header(const TrafficOptions& options);
+
+// The traffic held in memory (tests, micro-benchmarks; rtuscope_bench_gen streams it to
+// files instead): as a native capture and as the bytes alone.
+struct TrafficInMemory {
+    std::string capture;
+    std::string raw;
+    TrafficStats stats;
+};
+TrafficInMemory traffic_in_memory(const TrafficOptions& options,
+                                  const std::function<void(const SentFrame&)>& on_sent = {});
 
 }  // namespace rtuscope::bench
