@@ -6,7 +6,8 @@
 //     (a request followed by 00 also passes as a 9-byte FC03 answer), the reading the
 //     request/answer sequence expects wins, then the one followed by a gap, then the
 //     shorter. Function codes whose length no field gives are found by the CRC over
-//     the possible lengths, bounded by the next gap where the input has timing.
+//     the possible lengths, bounded by the next gap where the input has timing; a
+//     length with a frame of known length inside is a chance, not a frame.
 //  2. Otherwise the bytes up to the next position where a frame starts are cut at gaps;
 //     a piece that exactly fits a frame's shape is an invalid frame (CRC wrong), a piece
 //     that is cut short between two gaps is a truncated frame, the rest is noise.
@@ -422,6 +423,11 @@ Framer::Search Framer::search_length(std::size_t at, bool at_end, bool confirm) 
     // Whether a frame of n bytes whose CRC checks ends the search.
     auto ends_search = [&](std::size_t n) {
         const Follows follows = confirm ? what_follows(at + n, at_end) : Follows::boundary;
+        // Without silences to bound it (a raw dump) the search may reach across real
+        // frames, and the one length in 65536 that passes by chance is then often one at
+        // which another frame starts. A frame of known length inside says that is what
+        // happened: no frame starts here, and a longer length would hold it too.
+        if (follows == Follows::boundary && confirm && holds_known_frame(at, n)) return true;
         if (follows == Follows::boundary) result.length = n;
         if (follows == Follows::unknown_yet) result.pending = true;
         return follows != Follows::nothing;
@@ -431,6 +437,21 @@ Framer::Search Framer::search_length(std::size_t at, bool at_end, bool confirm) 
     if (crc_ends_.find(bytes_, at, kMinAdu, bound, ends_search)) return result;
     result.pending = !at_end && bound == avail && avail < kMaxAdu;
     return result;
+}
+
+bool Framer::holds_known_frame(std::size_t at, std::size_t n) const {
+    for (std::size_t inner = at + 1; inner + kMinAdu <= at + n; ++inner) {
+        const auto head = std::span(bytes_).subspan(inner, at + n - inner);
+        const FrameLengths lengths = options_.rules->frame_lengths(head);
+        for (const Role role : {Role::request, Role::response}) {
+            const FrameLength& length = lengths.of(role);
+            if (length.fixed_within(head.size()) &&
+                check_crc(head.first(length.bytes)).status == CrcStatus::ok) {
+                return true;
+            }
+        }
+    }
+    return false;
 }
 
 Framer::Follows Framer::what_follows(std::size_t end, bool at_end) const {

@@ -222,6 +222,24 @@ TEST(Framer, UnknownLengthsWithoutTimingStillFound) {
     expect_frame(r[3], kWrite, Kind::request);
 }
 
+// In a raw dump nothing bounds the search for an unknown code's length but the ADU's
+// size: here two bytes of noise (slave 0F, code 6B) and a request, followed by the two
+// bytes that make the CRC over all of them check, then the answer. The 12 bytes pass
+// as a frame followed by another; the request inside says they are one by chance.
+TEST(Framer, LengthSearchAcrossARealFrameFindsNone) {
+    const Bytes noise = {0x0F, 0x6B};
+    const Bytes across = with_crc(concat({noise, kRead}));
+    const Bytes chance(across.end() - 2, across.end());
+    Harness h;
+    const auto& r = h.run_raw(concat({across, kReadAnswer}));
+    ASSERT_EQ(r.size(), 4U);
+    expect_noise(r[0], noise);
+    expect_frame(r[1], kRead, Kind::request);
+    expect_noise(r[2], chance);
+    expect_frame(r[3], kReadAnswer, Kind::response);
+    EXPECT_EQ(r[3].request_number, r[1].number);
+}
+
 // The search tries lengths several at a time (framer.cpp): every length must still be
 // found, wherever it falls in a step, the shortest first.
 TEST(Framer, CrcSearchFindsEveryLength) {

@@ -72,6 +72,9 @@ class Framer {
 
     void decide(bool at_end);
     [[nodiscard]] Search search_length(std::size_t at, bool at_end, bool confirm) const;
+    // Whether a frame whose length its function code gives, with a right CRC, lies
+    // within the `n` bytes after the first at `at`.
+    [[nodiscard]] bool holds_known_frame(std::size_t at, std::size_t n) const;
     // Whether a frame ending at `end` is followed by a silence, the end or another frame.
     [[nodiscard]] Follows what_follows(std::size_t end, bool at_end) const;
     Attempt attempt_at(std::size_t at, bool at_end) const;
