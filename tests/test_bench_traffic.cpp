@@ -8,6 +8,7 @@
 #include <fmt/format.h>
 
 #include <map>
+#include <ostream>
 #include <string>
 #include <vector>
 
@@ -74,6 +75,15 @@ struct Case {
     std::uint32_t baud;
     InputFormat format;
 };
+
+std::string name_of(const Case& c) {
+    return fmt::format("{}_{}", c.format == InputFormat::raw ? "raw" : "capture", c.baud);
+}
+
+// For gtest's messages and ctest's test list (its bytes otherwise).
+void PrintTo(const Case& c, std::ostream* out) {
+    *out << name_of(c);
+}
 
 class BenchTraffic : public ::testing::TestWithParam<Case> {};
 
@@ -183,10 +193,7 @@ INSTANTIATE_TEST_SUITE_P(, BenchTraffic,
                                            Case{115200, InputFormat::raw},
                                            Case{9600, InputFormat::raw}),
                          [](const ::testing::TestParamInfo<Case>& param) {
-                             return fmt::format("{}_{}",
-                                                param.param.format == InputFormat::raw ? "raw"
-                                                                                      : "capture",
-                                                param.param.baud);
+                             return name_of(param.param);
                          });
 
 }  // namespace
