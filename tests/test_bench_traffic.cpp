@@ -3,9 +3,8 @@
 // traffic the benchmarks' figures are measured, and the framer and pairing on a hundred
 // thousand frames of the four seed devices and standard devices, with USB batching,
 // damaged frames, junk and noise, at two speeds, as a native capture and as a raw dump.
-#include <gtest/gtest.h>
-
 #include <fmt/format.h>
+#include <gtest/gtest.h>
 
 #include <map>
 #include <ostream>
@@ -97,8 +96,8 @@ TEST_P(BenchTraffic, DecodesToWhatWasSent) {
     }
     PipelineOptions options;
     options.bus = &bus;
-    auto source = source_from_memory(c.format == InputFormat::raw ? g.traffic.raw : g.traffic.capture,
-                                     "traffic", c.format);
+    auto source = source_from_memory(
+        c.format == InputFormat::raw ? g.traffic.raw : g.traffic.capture, "traffic", c.format);
     ASSERT_TRUE(source);
     KeepingSink sink;
     ASSERT_TRUE(run_pipeline(**source, options, sink));
@@ -165,17 +164,17 @@ TEST_P(BenchTraffic, DecodesToWhatWasSent) {
         if (poll.answer == nullptr) {
             // Unless the next poll, to the same slave and function, passes for its answer.
             const bool next_same = k + 1 < polls.size() && polls[k + 1].same_function(poll);
-            if (!poll.broadcast() && !next_same &&
-                !test::has_note(request, note_id::no_answer)) {
+            if (!poll.broadcast() && !next_same && !test::has_note(request, note_id::no_answer)) {
                 fail(request, "unanswered, but not said to be");
             }
             continue;
         }
         const Record& answer = *record_of.at(poll.answer);
-        const Kind answer_kind = (answer.frame.function() & 0x80U) ? Kind::exception : Kind::response;
+        const Kind answer_kind =
+            (answer.frame.function() & 0x80U) ? Kind::exception : Kind::response;
         if (answer.kind != answer_kind) {
-            fail(answer, fmt::format("a {}, read as a {}", to_string(answer_kind),
-                                     to_string(answer.kind)));
+            fail(answer,
+                 fmt::format("a {}, read as a {}", to_string(answer_kind), to_string(answer.kind)));
         }
         if (answer.request_number != request.number) {
             fail(answer, fmt::format("answers #{}, paired with #{}", request.number,
@@ -187,14 +186,11 @@ TEST_P(BenchTraffic, DecodesToWhatWasSent) {
     EXPECT_GE(checked, polls.size() * 97 / 100);
 }
 
-INSTANTIATE_TEST_SUITE_P(, BenchTraffic,
-                         ::testing::Values(Case{115200, InputFormat::capture},
-                                           Case{9600, InputFormat::capture},
-                                           Case{115200, InputFormat::raw},
-                                           Case{9600, InputFormat::raw}),
-                         [](const ::testing::TestParamInfo<Case>& param) {
-                             return name_of(param.param);
-                         });
+INSTANTIATE_TEST_SUITE_P(
+    , BenchTraffic,
+    ::testing::Values(Case{115200, InputFormat::capture}, Case{9600, InputFormat::capture},
+                      Case{115200, InputFormat::raw}, Case{9600, InputFormat::raw}),
+    [](const ::testing::TestParamInfo<Case>& param) { return name_of(param.param); });
 
 }  // namespace
 }  // namespace rtuscope
