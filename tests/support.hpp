@@ -4,11 +4,13 @@
 
 #include <initializer_list>
 #include <numeric>
+#include <string>
 #include <vector>
 
 #include "rtuscope/chunk.hpp"
 #include "rtuscope/crc.hpp"
 #include "rtuscope/framer.hpp"
+#include "rtuscope/pipeline.hpp"
 #include "rtuscope/transactions.hpp"
 
 namespace rtuscope::test {
@@ -118,6 +120,23 @@ struct Harness {
     std::size_t input_bytes = 0;
     Transactions transactions;
     Framer framer;
+};
+
+// Keeps everything run_pipeline delivers.
+class CollectingSink final : public RecordSink {
+  public:
+    void begin(const SessionInfo& s) override { session = s; }
+    void record(const Record& r) override { records.push_back(r); }
+    void end(const Totals& t, const std::vector<std::string>& r) override {
+        totals = t;
+        remarks = r;
+        ended = true;
+    }
+    SessionInfo session;
+    std::vector<Record> records;
+    Totals totals;
+    std::vector<std::string> remarks;
+    bool ended = false;
 };
 
 inline bool has_note(const Record& r, const char* id) {

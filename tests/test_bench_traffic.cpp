@@ -61,15 +61,6 @@ std::vector<Poll> polls_of(const std::vector<SentFrame>& sent) {
     return polls;
 }
 
-class KeepingSink final : public RecordSink {
-  public:
-    void begin(const SessionInfo&) override {}
-    void record(const Record& r) override { records.push_back(r); }
-    void end(const Totals& t, const std::vector<std::string>&) override { totals = t; }
-    std::vector<Record> records;
-    Totals totals;
-};
-
 struct Case {
     std::uint32_t baud;
     InputFormat format;
@@ -99,7 +90,7 @@ TEST_P(BenchTraffic, DecodesToWhatWasSent) {
     auto source = source_from_memory(
         c.format == InputFormat::raw ? g.traffic.raw : g.traffic.capture, "traffic", c.format);
     ASSERT_TRUE(source);
-    KeepingSink sink;
+    test::CollectingSink sink;
     ASSERT_TRUE(run_pipeline(**source, options, sink));
     const std::vector<Record>& records = sink.records;
 

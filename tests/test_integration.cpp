@@ -20,18 +20,12 @@
 #include "rtuscope/sim.hpp"
 #include "rtuscope/sources.hpp"
 #include "rtuscope/tty.hpp"
+#include "support.hpp"
 
 namespace rtuscope {
 namespace {
 
 using namespace std::chrono_literals;
-
-struct Collect final : RecordSink {
-    void begin(const SessionInfo& /*s*/) override {}
-    void record(const Record& r) override { records.push_back(r); }
-    void end(const Totals& /*t*/, const std::vector<std::string>& /*r*/) override {}
-    std::vector<Record> records;
-};
 
 LineSettings bus_line() {
     LineSettings line;
@@ -95,7 +89,7 @@ TEST(Integration, EveryTransactionOfTheMasterIsDecodedAndPaired) {
     PipelineOptions options;
     options.bus = &bus;
     options.live = true;
-    Collect live;
+    test::CollectingSink live;
     const Status status = run_pipeline(**recording, options, live);
     watcher.join();
     ASSERT_TRUE(status) << status.error().to_string();
@@ -166,7 +160,7 @@ TEST(Integration, EveryTransactionOfTheMasterIsDecodedAndPaired) {
     ASSERT_TRUE(offline) << offline.error().to_string();
     PipelineOptions offline_options;
     offline_options.bus = &bus;
-    Collect again;
+    test::CollectingSink again;
     ASSERT_TRUE(run_pipeline(**offline, offline_options, again));
     ASSERT_EQ(again.records.size(), live.records.size());
     for (std::size_t i = 0; i < live.records.size(); ++i) {
@@ -205,7 +199,7 @@ TEST(Integration, UnpluggedPortEndsTheRunWithWhatCameBefore) {
         std::this_thread::sleep_for(300ms);
         (*vbus)->unplug(1);
     });
-    Collect live;
+    test::CollectingSink live;
     PipelineOptions options;
     options.live = true;
     const Status status = run_pipeline(**source, options, live);

@@ -696,13 +696,7 @@ TEST(PcapRoundTrip, RecordsWrittenAndReadBackKeepBytesTimesAndDirections) {
     // And through the pipeline: the same frames, kinds and times come out.
     auto again = open_source(path, InputFormat::automatic);
     ASSERT_TRUE(again.ok());
-    class Collect : public RecordSink {
-      public:
-        void begin(const SessionInfo&) override {}
-        void record(const Record& r) override { records.push_back(r); }
-        void end(const Totals&, const std::vector<std::string>&) override {}
-        std::vector<Record> records;
-    } collect;
+    test::CollectingSink collect;
     ASSERT_TRUE(run_pipeline(**again, PipelineOptions{}, collect).ok());
     ASSERT_EQ(collect.records.size(), records.size());
     for (std::size_t i = 0; i < records.size(); ++i) {

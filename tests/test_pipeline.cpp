@@ -6,25 +6,12 @@
 
 #include "rtuscope/pipeline.hpp"
 #include "rtuscope/sources.hpp"
+#include "support.hpp"
 
 namespace rtuscope {
 namespace {
 
-class CollectingSink final : public RecordSink {
-  public:
-    void begin(const SessionInfo& s) override { session = s; }
-    void record(const Record& r) override { records.push_back(r); }
-    void end(const Totals& t, const std::vector<std::string>& r) override {
-        totals = t;
-        remarks = r;
-        ended = true;
-    }
-    SessionInfo session;
-    std::vector<Record> records;
-    Totals totals;
-    std::vector<std::string> remarks;
-    bool ended = false;
-};
+using test::CollectingSink;
 
 struct RealCapture {
     const char* file;
