@@ -135,8 +135,11 @@ std::uint64_t lean_scan(std::span<const std::uint8_t> bytes, const LeanLengths& 
     std::uint64_t frames = 0;
     std::size_t at = 0;
     out.clear();
-    // Stops a whole ADU before the end, so that no length needs checking against it.
-    while (at + rtuscope::kMaxAdu <= bytes.size()) {
+    // A length from the table is at most 255 + 255 (no kMaxAdu cap: a longer one fails
+    // its CRC but for one time in 65536): stopping that far before the end, none needs
+    // checking against it.
+    constexpr std::size_t kLongest = 2 * 255;
+    while (at + kLongest <= bytes.size()) {
         const std::uint8_t* p = bytes.data() + at;
         const std::uint8_t code = p[1];
         std::size_t length = 0;
