@@ -144,10 +144,13 @@ std::uint64_t lean_scan(std::span<const std::uint8_t> bytes, const LeanLengths& 
         const std::uint8_t code = p[1];
         std::size_t length = 0;
         if (table.simple[code]) {
-            const std::size_t request =
-                table.base[0][code] + (table.count_at[0][code] ? p[table.count_at[0][code]] : 0);
-            const std::size_t answer =
-                table.base[1][code] + (table.count_at[1][code] ? p[table.count_at[1][code]] : 0);
+            // Reading r's length (0 for none): its base, plus its count byte if it has one.
+            auto length_of = [&](std::size_t r) -> std::size_t {
+                const std::uint8_t count_at = table.count_at[r][code];
+                return table.base[r][code] + (count_at != 0 ? p[count_at] : 0U);
+            };
+            const std::size_t request = length_of(0);
+            const std::size_t answer = length_of(1);
             const std::size_t shorter = table.base[0][code] == 0   ? answer
                                         : table.base[1][code] == 0 ? request
                                                                    : std::min(request, answer);
