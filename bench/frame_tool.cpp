@@ -275,12 +275,13 @@ int main(int argc, char** argv) {
         records.reserve(bytes.size());
         std::uint64_t frames = 0;
         const double best = best_time(repeat, [&] { frames = lean_scan(bytes, table, records); });
-        fmt::print(
-            "lean {} bytes, {} frames ({} compact records): {:.4f} s, {:.1f} MB/s, {:.1f} "
-            "ns/frame\n",
-            content.size(), frames, records.size(), best,
-            static_cast<double>(content.size()) / best / 1e6,
-            best * 1e9 / static_cast<double>(frames));
+        // Garbage may hold no frame: then there is no time a frame to give.
+        const auto per_frame =
+            frames == 0 ? std::string("no frames")
+                        : fmt::format("{:.1f} ns/frame", best * 1e9 / static_cast<double>(frames));
+        fmt::print("lean {} bytes, {} frames ({} compact records): {:.4f} s, {:.1f} MB/s, {}\n",
+                   content.size(), frames, records.size(), best,
+                   static_cast<double>(content.size()) / best / 1e6, per_frame);
         return 0;
     }
     if (mode == "scan") {

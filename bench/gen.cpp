@@ -1,7 +1,9 @@
 // rtuscope_bench_gen: writes a large realistic capture (bench/traffic.hpp) in the native
-// capture format and the same bytes as a raw binary dump.
+// capture format and the same bytes as a raw binary dump; or, with --garbage, random
+// bytes as a raw dump.
 //
 //   rtuscope_bench_gen [--frames N] [--seed S] [--baud B] [--capture FILE] [--raw FILE]
+//   rtuscope_bench_gen --garbage BYTES [--seed S] --raw FILE
 #include <fmt/format.h>
 
 #include <CLI/CLI.hpp>
@@ -51,6 +53,11 @@ int main(int argc, char** argv) {
         ->check(CLI::Range(std::uint32_t{300}, std::uint32_t{4'000'000}));
     app.add_option("--capture", capture_path, "native capture to write");
     app.add_option("--raw", raw_path, "raw dump (the bytes alone) to write");
+    std::uint64_t garbage_bytes = 0;
+    app.add_option("--garbage", garbage_bytes,
+                   "instead of traffic, this many random bytes (from --seed) into --raw")
+        ->check(CLI::Range(std::uint64_t{1}, std::uint64_t{1'000'000'000}))
+        ->excludes("--capture");
     try {
         app.parse(argc, argv);
         if (capture_path.empty() && raw_path.empty()) {
@@ -58,6 +65,12 @@ int main(int argc, char** argv) {
         }
     } catch (const CLI::ParseError& e) {
         return app.exit(e);
+    }
+    if (garbage_bytes != 0) {
+        const auto bytes = rtuscope::bench::garbage(garbage_bytes, options.seed);
+        std::fwrite(bytes.data(), 1, bytes.size(), open_out(raw_path).get());
+        fmt::print(stderr, "{} bytes of garbage\n", bytes.size());
+        return 0;
     }
     File capture = open_out(capture_path);
     File raw = open_out(raw_path);

@@ -328,4 +328,11 @@ TrafficInMemory traffic_in_memory(const TrafficOptions& options,
     return out;
 }
 
+std::vector<std::uint8_t> garbage(std::uint64_t count, std::uint64_t seed) {
+    Rng rng(seed);
+    std::vector<std::uint8_t> bytes(count);
+    for (auto& b : bytes) b = rng.byte();
+    return bytes;
+}
+
 }  // namespace rtuscope::bench

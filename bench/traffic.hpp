@@ -58,4 +58,8 @@ struct TrafficInMemory {
 TrafficInMemory traffic_in_memory(const TrafficOptions& options,
                                   const std::function<void(const SentFrame&)>& on_sent = {});
 
+// `count` bytes of garbage, uniform and the same for a seed on every platform: a line at
+// the wrong speed or a dump of noise, where every byte starts a search for a frame.
+std::vector<std::uint8_t> garbage(std::uint64_t count, std::uint64_t seed);
+
 }  // namespace rtuscope::bench

@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
+#include <array>
 #include <map>
 #include <ostream>
 #include <string>
@@ -182,6 +183,22 @@ INSTANTIATE_TEST_SUITE_P(
     ::testing::Values(Case{115200, InputFormat::capture}, Case{9600, InputFormat::capture},
                       Case{115200, InputFormat::raw}, Case{9600, InputFormat::raw}),
     [](const ::testing::TestParamInfo<Case>& param) { return name_of(param.param); });
+
+// The benchmarks' garbage: the same bytes for a seed, other bytes for another, and every
+// byte value about as often as any other (so every function code starts searches).
+TEST(BenchGarbage, SameForASeedAndUniform) {
+    const auto bytes = bench::garbage(256'000, 1);
+    ASSERT_EQ(bytes.size(), 256'000U);
+    EXPECT_EQ(bench::garbage(256'000, 1), bytes);
+    EXPECT_NE(bench::garbage(256'000, 2), bytes);
+    std::array<int, 256> seen{};
+    for (const auto b : bytes) ++seen[b];
+    // 1,000 expected of each; ±15 % is over 4.5 standard deviations.
+    for (std::size_t value = 0; value < seen.size(); ++value) {
+        EXPECT_GT(seen[value], 850) << "byte " << value;
+        EXPECT_LT(seen[value], 1150) << "byte " << value;
+    }
+}
 
 }  // namespace
 }  // namespace rtuscope
