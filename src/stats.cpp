@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cassert>
+#include <functional>
 #include <iterator>
 #include <limits>
 #include <string_view>
@@ -57,17 +58,50 @@ RowFigures figures(std::optional<BusStats::Key> key, const FunctionStats& s,
     return f;
 }
 
-std::vector<RowFigures> all_rows(const BusStats& stats) {
-    std::vector<RowFigures> rows;
-    for (const auto& [key, s] : stats.functions()) {
-        const auto* poll = stats.main_poll(key);
-        rows.push_back(figures(key, s, poll != nullptr ? &poll->second : nullptr));
-    }
-    // The bus-wide row's cycle is that of the bus's most frequent poll, as in the bus block.
-    const auto* poll = stats.main_poll(std::nullopt);
-    rows.push_back(figures(std::nullopt, stats.all(), poll != nullptr ? &poll->second : nullptr));
-    return rows;
+RowFigures row_of(const BusStats& stats, const BusStats::Key& key, const FunctionStats& s) {
+    const auto* poll = stats.main_poll(key);
+    return figures(key, s, poll != nullptr ? &poll->second : nullptr);
 }
+
+// The bus-wide row; its cycle is that of the bus's most frequent poll, as in the bus block.
+RowFigures bus_row(const BusStats& stats) {
+    const auto* poll = stats.main_poll(std::nullopt);
+    return figures(std::nullopt, stats.all(), poll != nullptr ? &poll->second : nullptr);
+}
+
+// Every slave and function's row, then the bus-wide one, each made as it is printed:
+// noise in a long capture can fill the table (256 x 128 rows), too many to hold at once.
+template <class Each>
+void for_each_row(const BusStats& stats, Each each) {
+    for (const auto& [key, s] : stats.functions()) each(row_of(stats, key, s));
+    each(bus_row(stats));
+}
+
+// The statistics' text, handed to `send` in pieces of about 64 KiB at line ends rather
+// than held whole: a full table is megabytes of text (issue #6: peak RSS below 32 MiB
+// whatever the capture).
+class Pieces {
+  public:
+    explicit Pieces(const std::function<void(std::string_view)>& send) : send_(send) {}
+    Pieces(const Pieces&) = delete;
+    Pieces& operator=(const Pieces&) = delete;
+    ~Pieces() = default;
+
+    std::string& text() { return text_; }
+    void line_done() {
+        if (text_.size() >= kPieceBytes) send();
+    }
+    void send() {
+        if (text_.empty()) return;
+        send_(text_);
+        text_.clear();
+    }
+
+  private:
+    static constexpr std::size_t kPieceBytes = std::size_t{64} << 10;
+    const std::function<void(std::string_view)>& send_;
+    std::string text_;
+};
 
 std::string ms(std::optional<Nanos> t, int decimals, std::string_view unknown) {
     if (!t) return std::string(unknown);
@@ -108,31 +142,34 @@ std::string poll_data_text(const PollKey& key) {
     return hex_bytes(std::span(key.data.data(), key.size), true);
 }
 
-// Columns padded to their widest cell; `right` marks the numeric ones.
-std::string table(const std::vector<std::vector<std::string>>& rows,
-                  const std::vector<bool>& right) {
+// Columns padded to their widest cell; `right` marks the numeric ones. `rows(emit)` emits
+// the rows, header first; it runs twice (the widths, then the lines), so that no table is
+// held whole.
+template <class Rows>
+void table(Pieces& out, const std::vector<bool>& right, Rows rows) {
     std::vector<std::size_t> widths(right.size(), 0);
-    for (const auto& row : rows) {
+    rows([&](const std::vector<std::string>& row) {
         for (std::size_t i = 0; i < row.size(); ++i) widths[i] = std::max(widths[i], row[i].size());
-    }
-    std::string out;
-    for (const auto& row : rows) {
-        std::string line = "  ";
+    });
+    rows([&](const std::vector<std::string>& row) {
+        std::string& line = out.text();
+        const std::size_t start = line.size();
+        line += "  ";
         for (std::size_t i = 0; i < row.size(); ++i) {
             if (i > 0) line += "  ";
             line += right[i] ? fmt::format("{:>{}}", row[i], widths[i])
                              : fmt::format("{:<{}}", row[i], widths[i]);
         }
-        while (!line.empty() && line.back() == ' ') line.pop_back();
-        out += line + '\n';
-    }
-    return out;
+        while (line.size() > start && line.back() == ' ') line.pop_back();
+        line += '\n';
+        out.line_done();
+    });
 }
 
-std::string render_text(const BusStats& stats, const std::vector<std::string>& remarks) {
+void write_text(const BusStats& stats, const std::vector<std::string>& remarks, Pieces& pieces) {
     const SessionInfo& session = stats.session();
     const BusFigures& bus = stats.bus();
-    std::string out;
+    std::string& out = pieces.text();
     if (!session.source.name.empty()) {
         out += fmt::format("{}: {} input, {} {}\n", session.source.name, session.source.format,
                            session.line.baud, session.line.format());
@@ -179,67 +216,75 @@ std::string render_text(const BusStats& stats, const std::vector<std::string>& r
     out +=
         "\nper slave and function (times in ms; p50..max: turnaround over the n measured "
         "answers;\ncycle: of the slave's most frequent poll for that function):\n";
-    std::vector<std::vector<std::string>> rows{{"slave", "fc", "function", "req", "ans", "exc",
-                                                "crc", "no ans", "bcast", "unsol", "n", "p50",
-                                                "p95", "p99", "max", "cycle", "cyc max"}};
-    for (const RowFigures& f : all_rows(stats)) {
-        const FunctionStats& c = *f.counts;
-        rows.push_back({f.key ? fmt::format("{}", f.key->first) : "all",
-                        f.key ? fmt::format("{:02X}", f.key->second) : "",
-                        f.key ? function_name(f.key->second) : "", fmt::format("{}", c.requests),
-                        fmt::format("{}", c.answers), fmt::format("{}", c.exceptions),
-                        fmt::format("{}", c.crc_errors), fmt::format("{}", c.no_answer),
-                        fmt::format("{}", c.broadcasts), fmt::format("{}", c.unsolicited),
-                        fmt::format("{}", c.turnarounds.size()),
-                        ms_text(f.p50, c.turnarounds.bin_width()),
-                        ms_text(f.p95, c.turnarounds.bin_width()),
-                        ms_text(f.p99, c.turnarounds.bin_width()), ms(f.max, 2, "-"),
-                        ms_text(f.cycle_median, f.cycles != nullptr ? f.cycles->bin_width() : 0),
-                        ms(f.cycle_max, 2, "-")});
-    }
-    out += table(rows, {true, true, false, true, true, true, true, true, true, true, true, true,
-                        true, true, true, true, true});
+    const auto rows = [&](const auto& emit) {
+        emit({"slave", "fc", "function", "req", "ans", "exc", "crc", "no ans", "bcast", "unsol",
+              "n", "p50", "p95", "p99", "max", "cycle", "cyc max"});
+        for_each_row(stats, [&](const RowFigures& f) {
+            const FunctionStats& c = *f.counts;
+            emit({f.key ? fmt::format("{}", f.key->first) : "all",
+                  f.key ? fmt::format("{:02X}", f.key->second) : "",
+                  f.key ? function_name(f.key->second) : "", fmt::format("{}", c.requests),
+                  fmt::format("{}", c.answers), fmt::format("{}", c.exceptions),
+                  fmt::format("{}", c.crc_errors), fmt::format("{}", c.no_answer),
+                  fmt::format("{}", c.broadcasts), fmt::format("{}", c.unsolicited),
+                  fmt::format("{}", c.turnarounds.size()),
+                  ms_text(f.p50, c.turnarounds.bin_width()),
+                  ms_text(f.p95, c.turnarounds.bin_width()),
+                  ms_text(f.p99, c.turnarounds.bin_width()), ms(f.max, 2, "-"),
+                  ms_text(f.cycle_median, f.cycles != nullptr ? f.cycles->bin_width() : 0),
+                  ms(f.cycle_max, 2, "-")});
+        });
+    };
+    table(pieces,
+          {true, true, false, true, true, true, true, true, true, true, true, true, true, true,
+           true, true, true},
+          rows);
 
-    std::vector<std::vector<std::string>> exceptions{{"slave", "fc", "code", "exception", "count"}};
-    for (const auto& [key, s] : stats.functions()) {
-        for (const auto& [code, n] : s.exception_codes) {
-            const char* name = exception_name(code);
-            exceptions.push_back({fmt::format("{}", key.first), fmt::format("{:02X}", key.second),
-                                  fmt::format("{:02X}", code), name != nullptr ? name : "undefined",
-                                  fmt::format("{}", n)});
+    const auto exceptions = [&](const auto& emit) {
+        emit({"slave", "fc", "code", "exception", "count"});
+        for (const auto& [key, s] : stats.functions()) {
+            for (const auto& [code, n] : s.exception_codes) {
+                const char* name = exception_name(code);
+                emit({fmt::format("{}", key.first), fmt::format("{:02X}", key.second),
+                      fmt::format("{:02X}", code), name != nullptr ? name : "undefined",
+                      fmt::format("{}", n)});
+            }
         }
-    }
-    if (exceptions.size() > 1) {
+    };
+    const bool any_exception =
+        std::any_of(stats.functions().begin(), stats.functions().end(),
+                    [](const auto& entry) { return !entry.second.exception_codes.empty(); });
+    if (any_exception) {
         out += "\nexceptions:\n";
-        out += table(exceptions, {true, true, true, false, true});
+        table(pieces, {true, true, true, false, true}, exceptions);
     }
 
     // Only polls that repeat have a cycle; a bus with varying writes would otherwise
     // list every one of them.
-    if (stats.timed()) {
-        std::vector<std::vector<std::string>> polls{
-            {"slave", "fc", "data", "requests", "cycle median", "cycle max"}};
-        for (const auto& [key, p] : stats.polls()) {
-            if (p.cycles.empty()) continue;
-            polls.push_back({fmt::format("{}", key.slave), fmt::format("{:02X}", key.function),
-                             poll_data_text(key), fmt::format("{}", p.requests),
-                             ms_text(p.cycles.percentile(50), p.cycles.bin_width()),
-                             ms(p.cycles.percentile(100), 2, "-")});
-        }
-        if (polls.size() > 1) {
-            out += "\npolls (times in ms):\n";
-            out += table(polls, {true, true, false, true, true, true});
-        }
+    const auto repeats = [](const auto& entry) { return !entry.second.cycles.empty(); };
+    if (stats.timed() && std::any_of(stats.polls().begin(), stats.polls().end(), repeats)) {
+        const auto polls = [&](const auto& emit) {
+            emit({"slave", "fc", "data", "requests", "cycle median", "cycle max"});
+            for (const auto& [key, p] : stats.polls()) {
+                if (p.cycles.empty()) continue;
+                emit({fmt::format("{}", key.slave), fmt::format("{:02X}", key.function),
+                      poll_data_text(key), fmt::format("{}", p.requests),
+                      ms_text(p.cycles.percentile(50), p.cycles.bin_width()),
+                      ms(p.cycles.percentile(100), 2, "-")});
+            }
+        };
+        out += "\npolls (times in ms):\n";
+        table(pieces, {true, true, false, true, true, true}, polls);
     }
-    return out;
 }
 
-std::string render_csv(const BusStats& stats) {
-    std::string out =
+void write_csv(const BusStats& stats, Pieces& pieces) {
+    std::string& out = pieces.text();
+    out +=
         "slave,function,requests,answers,exceptions,crc_errors,no_answer,broadcasts,"
         "unsolicited,turnarounds,turnaround_p50_ms,turnaround_p95_ms,turnaround_p99_ms,"
         "turnaround_max_ms,cycle_median_ms,cycle_max_ms,turnaround_bin_ms,cycle_bin_ms\n";
-    for (const RowFigures& f : all_rows(stats)) {
+    for_each_row(stats, [&](const RowFigures& f) {
         const FunctionStats& c = *f.counts;
         const std::string slave = f.key ? fmt::format("{}", f.key->first) : "all";
         const std::string function = f.key ? fmt::format("{}", f.key->second) : "all";
@@ -249,8 +294,8 @@ std::string render_csv(const BusStats& stats) {
                            ms(f.p95, 3, ""), ms(f.p99, 3, ""), ms(f.max, 3, ""),
                            ms(f.cycle_median, 3, ""), ms(f.cycle_max, 3, ""),
                            bin_ms(&c.turnarounds, ""), bin_ms(f.cycles, ""));
-    }
-    return out;
+        pieces.line_done();
+    });
 }
 
 // The members of a row's JSON object, without the braces.
@@ -275,10 +320,9 @@ std::string json_row(const RowFigures& f) {
     return out;
 }
 
-std::string render_jsonl(const BusStats& stats) {
+void write_jsonl(const BusStats& stats, Pieces& pieces) {
     const SessionInfo& session = stats.session();
     const BusFigures& bus = stats.bus();
-    const std::vector<RowFigures> rows = all_rows(stats);
     std::string poll = "null";
     if (const auto* p = stats.main_poll(std::nullopt); p != nullptr) {
         poll = fmt::format(
@@ -290,7 +334,7 @@ std::string render_jsonl(const BusStats& stats) {
             ms(p->second.cycles.percentile(100), 3, "null"), bin_ms(&p->second.cycles, "null"));
     }
     const std::optional<double> utilisation = stats.utilisation();
-    std::string out = fmt::format(
+    pieces.text() += fmt::format(
         "{{\"bus\":{{\"source\":{},\"input_format\":{},\"line\":{},\"devices\":{},"
         "\"timed\":{},\"duration_s\":{},\"frames\":{},\"bytes\":{},\"noise_runs\":{},"
         "\"noise_bytes\":{},\"invalid\":{},\"unknown\":{},\"char_time_ms\":{:.6f},"
@@ -303,11 +347,11 @@ std::string render_jsonl(const BusStats& stats) {
         bus.frames, bus.bytes, bus.noise_runs, bus.noise_bytes, bus.invalid, bus.unknown,
         static_cast<double>(session.line.char_time()) / 1e6,
         utilisation ? fmt::format("{:.3f}", *utilisation) : "null", poll, stats.forgotten_polls(),
-        json_row(rows.back()));
-    for (std::size_t i = 0; i + 1 < rows.size(); ++i) {
-        out += fmt::format("{{{}}}\n", json_row(rows[i]));
+        json_row(bus_row(stats)));
+    for (const auto& [key, s] : stats.functions()) {
+        pieces.text() += fmt::format("{{{}}}\n", json_row(row_of(stats, key, s)));
+        pieces.line_done();
     }
-    return out;
 }
 
 class StatsSink final : public RecordSink {
@@ -318,8 +362,8 @@ class StatsSink final : public RecordSink {
     void record(const Record& record) override { stats_.add(record); }
     void end(const Totals& /*totals*/, const std::vector<std::string>& remarks) override {
         stats_.finish();
-        const std::string text = render_stats(stats_, format_, remarks);
-        write_output(out_, text);
+        write_stats(stats_, format_, remarks,
+                    [this](std::string_view text) { write_output(out_, text); });
         flush_output(out_);
     }
 
@@ -546,17 +590,28 @@ const std::pair<const PollKey, PollStats>* BusStats::main_poll(std::optional<Key
     return best;
 }
 
-std::string render_stats(const BusStats& stats, StatsFormat format,
-                         const std::vector<std::string>& remarks) {
+void write_stats(const BusStats& stats, StatsFormat format, const std::vector<std::string>& remarks,
+                 const std::function<void(std::string_view)>& send) {
+    Pieces pieces(send);
     switch (format) {
         case StatsFormat::csv:
-            return render_csv(stats);
+            write_csv(stats, pieces);
+            break;
         case StatsFormat::jsonl:
-            return render_jsonl(stats);
+            write_jsonl(stats, pieces);
+            break;
         case StatsFormat::text:
+            write_text(stats, remarks, pieces);
             break;
     }
-    return render_text(stats, remarks);
+    pieces.send();
+}
+
+std::string render_stats(const BusStats& stats, StatsFormat format,
+                         const std::vector<std::string>& remarks) {
+    std::string text;
+    write_stats(stats, format, remarks, [&](std::string_view piece) { text += piece; });
+    return text;
 }
 
 std::unique_ptr<RecordSink> make_stats_sink(std::FILE* out, StatsFormat format) {

@@ -617,6 +617,39 @@ TEST(StatsCsv, HeaderRowsAndTheAllRow) {
               "all,all,2,2,0,0,0,0,0,2,10.625,10.625,10.625,10.625,100.000,100.000,0.000,0.000");
 }
 
+TEST(StatsOutput, AFullTableIsWrittenInPiecesNeverHeldWhole) {
+    // Noise in a long enough capture reaches every row (256 slaves x 128 functions): the
+    // table is megabytes, handed on in pieces of about 64 KiB as it is made.
+    BusStats s;
+    for (unsigned slave = 0; slave < 256; ++slave) {
+        for (unsigned function = 0; function < 128; ++function) {
+            const Bytes frame = with_crc({static_cast<std::uint8_t>(slave),
+                                          static_cast<std::uint8_t>(function), 0x00, 0x01});
+            s.add(make_record(slave == 0 ? Kind::broadcast : Kind::request, frame));
+        }
+    }
+    s.finish();
+    ASSERT_EQ(s.functions().size(), 256U * 128U);
+    for (StatsFormat format : {StatsFormat::text, StatsFormat::csv, StatsFormat::jsonl}) {
+        std::string whole;
+        std::size_t pieces = 0;
+        std::size_t largest = 0;
+        write_stats(s, format, {}, [&](std::string_view piece) {
+            whole += piece;
+            ++pieces;
+            largest = std::max(largest, piece.size());
+        });
+        EXPECT_GT(whole.size(), std::size_t{10} << 16);  // ten pieces at least
+        EXPECT_GT(pieces, whole.size() / (std::size_t{66} << 10));
+        EXPECT_LT(largest, std::size_t{66} << 10);  // 64 KiB and the line that passed it
+        EXPECT_EQ(whole, render_stats(s, format));
+        EXPECT_EQ(std::count(whole.begin(), whole.end(), '\n'),
+                  format == StatsFormat::text  ? 32'768 + 8    // rows, all, header, 5 above
+                  : format == StatsFormat::csv ? 32'768 + 2    // rows, all, header
+                                               : 32'768 + 1);  // rows, the bus line
+    }
+}
+
 TEST(StatsJsonl, EveryLineIsOneObjectWithTheKeys) {
     BusStats s = stats_of(kTimedCapture, InputFormat::capture);
     s.add(make_record(Kind::exception, with_crc({0x02, 0x84, 0x02})));

@@ -15,6 +15,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <cstdio>
+#include <functional>
 #include <map>
 #include <memory>
 #include <optional>
@@ -171,7 +172,12 @@ class BusStats {
     FunctionStats all_;
 };
 
-// The statistics as `format` prints them; `remarks` are the source's (text only).
+// The statistics as `format` prints them, handed to `send` in pieces of about 64 KiB as
+// they are made (a table of every slave and function is megabytes: it is never held
+// whole); `remarks` are the source's (text only).
+void write_stats(const BusStats& stats, StatsFormat format, const std::vector<std::string>& remarks,
+                 const std::function<void(std::string_view)>& send);
+// The same, whole, as one string.
 std::string render_stats(const BusStats& stats, StatsFormat format,
                          const std::vector<std::string>& remarks = {});
 
