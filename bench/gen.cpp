@@ -2,12 +2,12 @@
 // capture format and the same bytes as a raw binary dump; or, with --garbage, random
 // bytes as a raw dump.
 //
-//   rtuscope_bench_gen [--frames N] [--seed S] [--baud B] [--capture FILE] [--raw FILE]
+//   rtuscope_bench_gen [--frames N] [--seed S] [--baud B] [--all-slaves N] [--capture FILE]
+//                      [--raw FILE]
 //   rtuscope_bench_gen --garbage BYTES [--seed S] --raw FILE
 #include <fmt/format.h>
 
 #include <CLI/CLI.hpp>
-
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -41,8 +41,9 @@ int main(int argc, char** argv) {
     rtuscope::bench::TrafficOptions options;
     std::string capture_path;
     std::string raw_path;
-    CLI::App app{"rtuscope_bench_gen: writes realistic traffic of the four seed devices and "
-                 "standard devices (bench/traffic.hpp) as a native capture and/or a raw dump"};
+    CLI::App app{
+        "rtuscope_bench_gen: writes realistic traffic of the four seed devices and "
+        "standard devices (bench/traffic.hpp) as a native capture and/or a raw dump"};
     app.add_option("--frames", options.frames, "frames to generate")
         ->capture_default_str()
         ->check(CLI::Range(std::uint64_t{1}, std::uint64_t{10'000'000'000}));
@@ -51,6 +52,10 @@ int main(int argc, char** argv) {
     app.add_option("--baud", options.baud, "line speed the timing follows")
         ->capture_default_str()
         ->check(CLI::Range(std::uint32_t{300}, std::uint32_t{4'000'000}));
+    app.add_option("--all-slaves", options.all_slaves_functions,
+                   "instead of the mix, every slave 1-247 asked functions 1..N in turn, each "
+                   "answered by an exception (the largest statistics: 247 x N rows)")
+        ->check(CLI::Range(1, 127));
     app.add_option("--capture", capture_path, "native capture to write");
     app.add_option("--raw", raw_path, "raw dump (the bytes alone) to write");
     std::uint64_t garbage_bytes = 0;

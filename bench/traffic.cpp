@@ -242,6 +242,19 @@ class Adapter {
     Nanos deadline_ = 0;
 };
 
+// One transaction of TrafficOptions::all_slaves_functions: the n-th of the rounds over
+// every slave and function. Each request has the 8 bytes of a read, whatever its function;
+// the exception answers it after t3.5 plus up to 18 ms.
+Transaction all_slaves(std::uint64_t n, std::uint32_t functions, Rng& rng, Nanos t35) {
+    const auto slave = static_cast<std::uint8_t>(1 + (n / functions) % 247);
+    const auto fc = static_cast<std::uint8_t>(1 + n % functions);
+    Transaction t;
+    t.request = with_crc({slave, fc, 0x00, 0x00, 0x00, 0x01});
+    t.answer = exception(slave, fc, 0x01);
+    t.turnaround = t35 + rng.range(0, 18'000'000);
+    return t;
+}
+
 }  // namespace
 
 TrafficStats generate_traffic(const TrafficOptions& options,
@@ -263,10 +276,12 @@ TrafficStats generate_traffic(const TrafficOptions& options,
         if (on_sent) on_sent({what, frame, damaged});
     };
 
-    while (stats.frames < options.frames) {
+    for (std::uint64_t n = 0; stats.frames < options.frames; ++n) {
         Transaction t;
         const std::uint32_t pick = rng.range(0, 99);
-        if (pick < 40) {
+        if (options.all_slaves_functions != 0) {
+            t = all_slaves(n, options.all_slaves_functions, rng, t35);
+        } else if (pick < 40) {
             t = seed_device(static_cast<std::uint8_t>(1 + pick / 10), rng, t35);
         } else {
             t = standard(static_cast<std::uint8_t>(rng.range(5, 24)), rng, t35);

@@ -16,6 +16,9 @@ struct TrafficOptions {
     std::uint64_t frames = 1'000'000;  // requests + answers (noise runs not counted)
     std::uint64_t seed = 1;
     std::uint32_t baud = 115200;  // 8N1
+    // 0: the mix above. N: instead, every slave 1-247 asked functions 1..N in turn, each
+    // answered by an exception: the largest statistics a bus can give (247 x N rows).
+    std::uint32_t all_slaves_functions = 0;
 };
 
 struct TrafficStats {

@@ -5,6 +5,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <bit>
 #include <cassert>
 #include <functional>
 #include <iterator>
@@ -85,7 +86,6 @@ class Pieces {
     explicit Pieces(const std::function<void(std::string_view)>& send) : send_(send) {}
     Pieces(const Pieces&) = delete;
     Pieces& operator=(const Pieces&) = delete;
-    ~Pieces() = default;
 
     std::string& text() { return text_; }
     void line_done() {
@@ -202,7 +202,7 @@ void write_text(const BusStats& stats, const std::vector<std::string>& remarks, 
             "note: ~ marks a percentile counted in bins (more than {} distinct turnarounds in "
             "a row or cycles of a poll): up to one bin ({} ms at most) below the exact "
             "figure\n",
-            DurationCounts::kMaxDistinct, ms(widest, 3, ""));
+            stats.bins_each(), ms(widest, 3, ""));
     }
     if (stats.forgotten_polls() != 0) {
         out += fmt::format(
@@ -383,6 +383,14 @@ void DurationCounts::add(Nanos value) {
     if (added_.size() * 4 >= max_distinct_) finish();
 }
 
+void DurationCounts::limit(std::size_t max_distinct) {
+    max_distinct_ = max_distinct;
+    if (added_.size() * 4 >= max_distinct_) finish();
+    fit();
+    if (counts_.capacity() > max_distinct_ + max_distinct_ / 4) counts_.shrink_to_fit();
+    if (added_.capacity() > max_distinct_ / 4) added_.shrink_to_fit();
+}
+
 void DurationCounts::finish() {
     if (added_.empty()) return;
     // One bin per value, sorted; absorb() joins the equal ones with those of a bin.
@@ -433,6 +441,10 @@ void DurationCounts::absorb(const std::vector<Bin>& sorted_bins) {
                [](const Bin& a, const Bin& b) { return a.smallest < b.smallest; });
     counts_ = std::move(merged);
     join_bins();
+    fit();
+}
+
+void DurationCounts::fit() {
     // The widths are 1 ns, then 1 µs doubled as often as it takes: each bin lies within
     // one of every wider width, so values counted at different widths still join exactly.
     constexpr Nanos kFirstWidth = 1000;
@@ -499,7 +511,7 @@ void BusStats::add(const Record& record) {
             PollStats& p = poll_of(poll);
             ++p.requests;
             if (has_time(f.start)) {
-                if (has_time(p.last_start)) p.cycles.add(f.start - p.last_start);
+                if (has_time(p.last_start)) add_duration(p.cycles, f.start - p.last_start);
                 p.last_start = f.start;
             }
             break;
@@ -513,7 +525,7 @@ void BusStats::add(const Record& record) {
                 if (f.bytes.size() >= 3) ++s.exception_codes[f.bytes[2]];
             }
             if (has_note(record, note_id::unsolicited)) ++s.unsolicited;
-            if (has_time(record.latency)) s.turnarounds.add(record.latency);
+            if (has_time(record.latency)) add_duration(s.turnarounds, record.latency);
             break;
         case Kind::broadcast:
             ++s.broadcasts;
@@ -556,8 +568,37 @@ void BusStats::forget_rare_polls() {
     std::nth_element(by_rate.begin(), forgotten, by_rate.end(), [](const auto& a, const auto& b) {
         return a.first != b.first ? a.first < b.first : a.second->first < b.second->first;
     });
-    for (auto it = by_rate.begin(); it != forgotten; ++it) polls_.erase(it->second);
+    for (auto it = by_rate.begin(); it != forgotten; ++it) {
+        if (!it->second->second.cycles.empty()) --duration_sets_;
+        polls_.erase(it->second);
+    }
     forgotten_polls_ += by_rate.size() / 4;
+    share_bins();
+}
+
+void BusStats::add_duration(DurationCounts& counts, Nanos value) {
+    if (counts.empty()) {
+        ++duration_sets_;
+        share_bins();
+        counts.limit(max_distinct_);
+    }
+    counts.add(value);
+}
+
+void BusStats::share_bins() {
+    // In powers of two, so that the share changes a few times, not with every new set
+    // (each change visits every set).
+    const std::size_t share =
+        std::clamp(std::bit_floor(kBinBudget / std::max<std::size_t>(duration_sets_, 1)),
+                   kMinDistinct, DurationCounts::kMaxDistinct);
+    if (share == max_distinct_) return;
+    max_distinct_ = share;
+    for (auto& [key, s] : functions_) {
+        if (!s.turnarounds.empty()) s.turnarounds.limit(share);
+    }
+    for (auto& [key, p] : polls_) {
+        if (!p.cycles.empty()) p.cycles.limit(share);
+    }
 }
 
 bool BusStats::timed() const {

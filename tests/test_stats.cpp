@@ -14,6 +14,7 @@
 #include "rtuscope/sources.hpp"
 #include "rtuscope/stats.hpp"
 #include "support.hpp"
+#include "traffic.hpp"
 
 namespace rtuscope {
 namespace {
@@ -332,6 +333,109 @@ TEST(StatsPercentile, MergedCountsKeepTheWiderBins) {
         EXPECT_LT(exact - binned, pooled.bin_width()) << p;
     }
     EXPECT_EQ(pooled.percentile(100), *std::max_element(values.begin(), values.end()));
+}
+
+TEST(StatsPercentile, ALowerLimitWidensTheBinsAndGivesTheRoomBack) {
+    std::mt19937 random(4);
+    std::uniform_int_distribution<Nanos> micros(4'000, 4'999);
+    std::vector<Nanos> values;
+    for (int i = 0; i < 20'000; ++i) values.push_back(micros(random) * 1000);
+    DurationCounts counts;
+    for (Nanos v : values) counts.add(v);
+    counts.finish();
+    ASSERT_EQ(counts.held(), 1000U);  // exact so far
+    counts.limit(64);
+    EXPECT_LE(counts.held(), 64U);
+    EXPECT_EQ(counts.bin_width(), 16'000);  // 1,000 µs: 16 µs makes 63 bins, 8 µs 125
+    for (int i = 0; i < 5'000; ++i) counts.add(micros(random) * 1000 + 2'000'000);
+    counts.finish();
+    EXPECT_LE(counts.held(), 64U);  // the new values keep to the new limit too
+    EXPECT_EQ(counts.size(), 25'000U);
+}
+
+// A row of its own for each of `rows` slave/function pairs, each answered `answers`
+// times with distinct turnarounds.
+BusStats answered_rows(unsigned rows, int answers) {
+    BusStats s;
+    for (unsigned r = 0; r < rows; ++r) {
+        const auto slave = static_cast<std::uint8_t>(1 + r / 8);
+        const auto function = static_cast<std::uint8_t>(1 + r % 8);
+        Record answer = make_record(Kind::response, with_crc({slave, function, 0x00}));
+        for (int i = 0; i < answers; ++i) {
+            answer.latency = (2'000 + 7 * i) * 1000;
+            s.add(answer);
+        }
+    }
+    s.finish();
+    return s;
+}
+
+TEST(StatsTurnaround, EachRowHasTheFullBoundOnATypicalBus) {
+    const BusStats s = answered_rows(64, 1'500);
+    EXPECT_EQ(s.bins_each(), DurationCounts::kMaxDistinct);
+    for (const auto& [key, row] : s.functions()) {
+        EXPECT_EQ(row.turnarounds.bin_width(), 16'000);  // 10.5 ms: 8 µs would be 1,313 bins
+    }
+}
+
+TEST(StatsTurnaround, ALargeBusSharesTheBinsAmongItsRows) {
+    // 247 slaves x 8 functions would be 44 MiB of bins at 1,024 each; 1,100 rows here, so
+    // each may hold 256 (2^19 / 1,100 is 476), the first rows limited once the later came.
+    const BusStats s = answered_rows(1'100, 300);
+    EXPECT_EQ(s.bins_each(), 256U);
+    std::size_t bins = 0;
+    for (const auto& [key, row] : s.functions()) {
+        EXPECT_EQ(row.turnarounds.size(), 300U);
+        EXPECT_LE(row.turnarounds.held(), 256U);
+        EXPECT_EQ(row.turnarounds.bin_width(), 16'000);         // 2.1 ms: 8 µs would be 263 bins
+        EXPECT_EQ(row.turnarounds.percentile(99), 4'065'000);   // exact 4.072: in 4.064-4.080
+        EXPECT_EQ(row.turnarounds.percentile(100), 4'093'000);  // the maximum stays exact
+        bins += row.turnarounds.held();
+    }
+    EXPECT_LE(bins, BusStats::kBinBudget);
+    EXPECT_NE(render_stats(s, StatsFormat::text)
+                  .find("note: ~ marks a percentile counted in bins (more than 256 distinct"),
+              std::string::npos);
+}
+
+TEST(StatsTurnaround, TheBenchmarksLargestBusKeepsToItsShare) {
+    // rtuscope_bench_gen --all-slaves 8: every slave 1-247 asked functions 1-8 in turn.
+    bench::TrafficOptions options;
+    options.frames = 40'000;
+    options.all_slaves_functions = 8;
+    const BusStats s = stats_of(bench::traffic_in_memory(options).capture, InputFormat::capture);
+    EXPECT_EQ(s.bins_each(), 256U);  // 2^19 among ~1,976 rows
+    for (unsigned slave = 1; slave <= 247; ++slave) {
+        for (unsigned function = 1; function <= 8; ++function) {
+            const auto row = s.functions().find(
+                {static_cast<std::uint8_t>(slave), static_cast<std::uint8_t>(function)});
+            ASSERT_NE(row, s.functions().end()) << slave << " " << function;
+            EXPECT_GE(row->second.exceptions, 5U) << slave << " " << function;
+            EXPECT_LE(row->second.turnarounds.held(), 256U);
+        }
+    }
+}
+
+TEST(StatsCycle, ForgottenPollsGiveTheirShareOfTheBinsBack) {
+    // 100,000 distinct requests, each sent twice (one cycle each): at most 512 polls are
+    // kept at a time, so each keeps the full bound of bins.
+    BusStats s;
+    Nanos t = 0;
+    for (unsigned i = 0; i < 100'000; ++i) {
+        const auto high = static_cast<std::uint8_t>(i >> 8);
+        const auto low = static_cast<std::uint8_t>(i);
+        const Record request = make_record(
+            Kind::request,
+            with_crc({static_cast<std::uint8_t>(1 + i % 200), 0x06, high, low, 0, 1}), t);
+        s.add(request);
+        Record again = request;
+        again.frame.start = t + 5 * kMs;
+        s.add(again);
+        t += 10 * kMs;
+    }
+    s.finish();
+    EXPECT_LE(s.polls().size(), BusStats::kMaxPolls);
+    EXPECT_EQ(s.bins_each(), DurationCounts::kMaxDistinct);
 }
 
 TEST(StatsCounts, PerSlaveAndFunction) {

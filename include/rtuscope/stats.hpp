@@ -5,10 +5,11 @@
 //
 // Memory does not grow with the capture, so that a sniffer can run for weeks and `stats`
 // reads a capture of any length: durations are counted per distinct value in bounded
-// tables (DurationCounts, at most ~22 KiB each), one per row and per poll, and there are
-// at most kMaxPolls polls (~11 MiB if every one of them were full) and 256 x 128 rows
-// (~8 MiB of counters if noise hit every slave and function). The frames themselves are
-// never kept.
+// tables (DurationCounts, at most ~22 KiB each), one per row and per poll, whose bins
+// share a budget of ~12 MiB once more than 512 of them have values (BusStats::
+// kBinBudget); there are at most kMaxPolls polls and 256 x 128 rows (~8 MiB of counters
+// if noise hit every slave and function); the output is written in pieces as it is made.
+// The frames themselves are never kept.
 #pragma once
 
 #include <array>
@@ -38,7 +39,7 @@ enum class StatsFormat : std::uint8_t { text, csv, jsonl };
 // less than or equal to (sorted[ceil(percent/100 * n) - 1]): always a measured value,
 // never an interpolation; once binned, at most one bin width below the exact one. The
 // maximum is always exact. At most ~22 KiB however many values come (room for 1,280
-// bins while counting, and 256 values waiting to be counted).
+// bins while counting, and 256 values waiting to be counted), ~22 bytes a bin allowed.
 class DurationCounts {
   public:
     static constexpr std::size_t kMaxDistinct = 1024;
@@ -46,6 +47,9 @@ class DurationCounts {
     explicit DurationCounts(std::size_t max_distinct) : max_distinct_(max_distinct) {}
 
     void add(Nanos value);
+    // From now on holds at most `max_distinct` bins: widens them as far as that takes, and
+    // gives back the room a larger bound had taken.
+    void limit(std::size_t max_distinct);
     // Pools `other`'s values into these, at the wider of the two resolutions; `other`
     // must be finished.
     void merge(const DurationCounts& other);
@@ -67,6 +71,7 @@ class DurationCounts {
     };
     [[nodiscard]] Nanos bin_of(Nanos value) const;
     void absorb(const std::vector<Bin>& sorted_bins);
+    void fit();  // widens the bins until there are at most max_distinct_
     void widen_to(Nanos width);
     void join_bins();  // of one bin at width_ into one, the smallest value kept
 
@@ -127,6 +132,14 @@ class BusStats {
   public:
     using Key = std::pair<std::uint8_t, std::uint8_t>;  // slave, function & 0x7F
 
+    // The bins of every row's turnarounds and every poll's cycles, shared: each holds up to
+    // DurationCounts::kMaxDistinct while at most 512 of them have values; beyond that, a
+    // power-of-two share of kBinBudget, never below kMinDistinct. A bin takes ~22 bytes
+    // (room for a batch included), so a bus of 247 slaves answering several functions
+    // each, or noise that reached every row, keeps to ~12 MiB of them.
+    static constexpr std::size_t kBinBudget = std::size_t{1} << 19;
+    static constexpr std::size_t kMinDistinct = 16;
+
     // Distinct requests kept as polls. A full table forgets the quarter of its polls that
     // came least often for the time they have been in it (by requests, not by clock, so
     // untimed input is treated alike): one-off writes and rare requests go, a master's
@@ -144,6 +157,8 @@ class BusStats {
     [[nodiscard]] const BusFigures& bus() const { return bus_; }
     // Every slave and function summed, turnarounds pooled.
     [[nodiscard]] const FunctionStats& all() const { return all_; }
+    // Bins each row's turnarounds and each poll's cycles may hold now (kBinBudget).
+    [[nodiscard]] std::size_t bins_each() const { return max_distinct_; }
     // Polls forgotten to keep the table within kMaxPolls.
     [[nodiscard]] std::uint64_t forgotten_polls() const { return forgotten_polls_; }
 
@@ -162,12 +177,16 @@ class BusStats {
   private:
     PollStats& poll_of(const PollKey& key);
     void forget_rare_polls();
+    void add_duration(DurationCounts& counts, Nanos value);
+    void share_bins();
 
     SessionInfo session_;
     std::map<Key, FunctionStats> functions_;
     std::map<PollKey, PollStats> polls_;
     std::uint64_t requests_ = 0;  // to date, for the polls' ages
     std::uint64_t forgotten_polls_ = 0;
+    std::size_t duration_sets_ = 0;  // rows' turnarounds and polls' cycles with values
+    std::size_t max_distinct_ = DurationCounts::kMaxDistinct;  // each one's share of the bins
     BusFigures bus_;
     FunctionStats all_;
 };
