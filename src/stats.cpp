@@ -204,6 +204,12 @@ void write_text(const BusStats& stats, const std::vector<std::string>& remarks, 
             "figure\n",
             stats.bins_each(), ms(widest, 3, ""));
     }
+    if (stats.unlisted_exceptions() != 0) {
+        out += fmt::format(
+            "note: {} exceptions not listed by code, beyond {} distinct slave/function/code "
+            "(they still count in the rows)\n",
+            stats.unlisted_exceptions(), BusStats::kMaxExceptionCodes);
+    }
     if (stats.forgotten_polls() != 0) {
         out += fmt::format(
             "note: {} rare polls forgotten to keep to {} distinct requests (their requests "
@@ -338,7 +344,8 @@ void write_jsonl(const BusStats& stats, Pieces& pieces) {
         "{{\"bus\":{{\"source\":{},\"input_format\":{},\"line\":{},\"devices\":{},"
         "\"timed\":{},\"duration_s\":{},\"frames\":{},\"bytes\":{},\"noise_runs\":{},"
         "\"noise_bytes\":{},\"invalid\":{},\"unknown\":{},\"char_time_ms\":{:.6f},"
-        "\"utilisation_pct\":{},\"poll\":{},\"forgotten_polls\":{},\"all\":{{{}}}}}}}\n",
+        "\"utilisation_pct\":{},\"poll\":{},\"forgotten_polls\":{},\"unlisted_exceptions\":{},"
+        "\"all\":{{{}}}}}}}\n",
         json_string(session.source.name), json_string(session.source.format),
         json_string(fmt::format("{} {}", session.line.baud, session.line.format())),
         json_string(session.devices), stats.timed() ? "true" : "false",
@@ -347,7 +354,7 @@ void write_jsonl(const BusStats& stats, Pieces& pieces) {
         bus.frames, bus.bytes, bus.noise_runs, bus.noise_bytes, bus.invalid, bus.unknown,
         static_cast<double>(session.line.char_time()) / 1e6,
         utilisation ? fmt::format("{:.3f}", *utilisation) : "null", poll, stats.forgotten_polls(),
-        json_row(bus_row(stats)));
+        stats.unlisted_exceptions(), json_row(bus_row(stats)));
     for (const auto& [key, s] : stats.functions()) {
         pieces.text() += fmt::format("{{{}}}\n", json_row(row_of(stats, key, s)));
         pieces.line_done();
@@ -522,7 +529,7 @@ void BusStats::add(const Record& record) {
                 ++s.answers;
             } else {
                 ++s.exceptions;
-                if (f.bytes.size() >= 3) ++s.exception_codes[f.bytes[2]];
+                if (f.bytes.size() >= 3) count_exception_code(s, f.bytes[2]);
             }
             if (has_note(record, note_id::unsolicited)) ++s.unsolicited;
             if (has_time(record.latency)) add_duration(s.turnarounds, record.latency);
@@ -574,6 +581,17 @@ void BusStats::forget_rare_polls() {
     }
     forgotten_polls_ += by_rate.size() / 4;
     share_bins();
+}
+
+void BusStats::count_exception_code(FunctionStats& row, std::uint8_t code) {
+    if (auto it = row.exception_codes.find(code); it != row.exception_codes.end()) {
+        ++it->second;
+    } else if (exception_codes_ < kMaxExceptionCodes) {
+        row.exception_codes.emplace(code, 1);
+        ++exception_codes_;
+    } else {
+        ++unlisted_exceptions_;
+    }
 }
 
 void BusStats::add_duration(DurationCounts& counts, Nanos value) {

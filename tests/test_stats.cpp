@@ -416,6 +416,35 @@ TEST(StatsTurnaround, TheBenchmarksLargestBusKeepsToItsShare) {
     }
 }
 
+TEST(StatsCounts, ExceptionCodesListedUpToTheBoundAndStillCountedBeyond) {
+    // 40 slaves answering every code 0-255: 10,240 slave/function/code triples.
+    BusStats s;
+    for (unsigned slave = 1; slave <= 40; ++slave) {
+        for (unsigned code = 0; code < 256; ++code) {
+            s.add(make_record(Kind::exception, with_crc({static_cast<std::uint8_t>(slave), 0x83,
+                                                         static_cast<std::uint8_t>(code)})));
+        }
+    }
+    s.add(make_record(Kind::exception, with_crc({1, 0x83, 0x02})));  // a listed triple again
+    s.finish();
+    std::size_t listed = 0;
+    for (const auto& [key, row] : s.functions()) {
+        EXPECT_EQ(row.exceptions, key.first == 1 ? 257U : 256U);  // every one in its row
+        listed += row.exception_codes.size();
+    }
+    EXPECT_EQ(listed, BusStats::kMaxExceptionCodes);
+    EXPECT_EQ(s.unlisted_exceptions(), 10'240U - BusStats::kMaxExceptionCodes);
+    EXPECT_EQ(s.functions().at({1, 3}).exception_codes.at(0x02), 2U);
+    EXPECT_EQ(s.functions().count({33, 3}), 1U);
+    EXPECT_TRUE(s.functions().at({33, 3}).exception_codes.empty());  // 32 x 256 = 8,192 before
+    EXPECT_NE(render_stats(s, StatsFormat::text)
+                  .find("note: 2048 exceptions not listed by code, beyond 8192 distinct "
+                        "slave/function/code (they still count in the rows)\n"),
+              std::string::npos);
+    EXPECT_NE(render_stats(s, StatsFormat::jsonl).find("\"unlisted_exceptions\":2048,"),
+              std::string::npos);
+}
+
 TEST(StatsCycle, ForgottenPollsGiveTheirShareOfTheBinsBack) {
     // 100,000 distinct requests, each sent twice (one cycle each): at most 512 polls are
     // kept at a time, so each keeps the full bound of bins.

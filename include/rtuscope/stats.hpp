@@ -88,6 +88,7 @@ struct FunctionStats {
     std::uint64_t requests = 0;
     std::uint64_t answers = 0;     // normal answers (Kind::response), unsolicited ones too
     std::uint64_t exceptions = 0;  // exception answers, also counted per code below
+    // Per code, within BusStats::kMaxExceptionCodes over all rows.
     std::map<std::uint8_t, std::uint64_t> exception_codes;
     std::uint64_t crc_errors = 0;   // frames with a bad or swapped CRC, whatever their kind
     std::uint64_t no_answer = 0;    // requests noted txn.no_answer
@@ -140,6 +141,12 @@ class BusStats {
     static constexpr std::size_t kBinBudget = std::size_t{1} << 19;
     static constexpr std::size_t kMinDistinct = 16;
 
+    // Exceptions are counted per code for up to this many slave/function/code triples:
+    // a real bus has a few dozen, but crafted or garbage input can bring 247 x 127 x 256
+    // (8 million, ~400 MiB of them); the exceptions of any further triple still count in
+    // their row, and in unlisted_exceptions().
+    static constexpr std::size_t kMaxExceptionCodes = 8192;
+
     // Distinct requests kept as polls. A full table forgets the quarter of its polls that
     // came least often for the time they have been in it (by requests, not by clock, so
     // untimed input is treated alike): one-off writes and rare requests go, a master's
@@ -159,6 +166,8 @@ class BusStats {
     [[nodiscard]] const FunctionStats& all() const { return all_; }
     // Bins each row's turnarounds and each poll's cycles may hold now (kBinBudget).
     [[nodiscard]] std::size_t bins_each() const { return max_distinct_; }
+    // Exceptions not counted per code, their triple beyond kMaxExceptionCodes.
+    [[nodiscard]] std::uint64_t unlisted_exceptions() const { return unlisted_exceptions_; }
     // Polls forgotten to keep the table within kMaxPolls.
     [[nodiscard]] std::uint64_t forgotten_polls() const { return forgotten_polls_; }
 
@@ -178,6 +187,7 @@ class BusStats {
     PollStats& poll_of(const PollKey& key);
     void forget_rare_polls();
     void add_duration(DurationCounts& counts, Nanos value);
+    void count_exception_code(FunctionStats& row, std::uint8_t code);
     void share_bins();
 
     SessionInfo session_;
@@ -185,6 +195,8 @@ class BusStats {
     std::map<PollKey, PollStats> polls_;
     std::uint64_t requests_ = 0;  // to date, for the polls' ages
     std::uint64_t forgotten_polls_ = 0;
+    std::size_t exception_codes_ = 0;  // slave/function/code triples counted
+    std::uint64_t unlisted_exceptions_ = 0;
     std::size_t duration_sets_ = 0;  // rows' turnarounds and polls' cycles with values
     std::size_t max_distinct_ = DurationCounts::kMaxDistinct;  // each one's share of the bins
     BusFigures bus_;
