@@ -11,6 +11,7 @@
 #include <span>
 #include <string_view>
 
+#include "readers.hpp"
 #include "rtuscope/pcap.hpp"
 #include "rtuscope/sources.hpp"
 
@@ -174,7 +175,8 @@ Result<Extracted> exported_pdu_payload(Bytes p, std::uint64_t number) {
     // "mbrtu" (over TCP) and "mbrtu_udp" hold whole RTU frames. "modbus" and "mbtcp"
     // hold PDUs without address and CRC, which are not RTU frames.
     if (!name.starts_with("mbrtu")) {
-        return skip(fmt::format("exported PDUs for another dissector (\"{}\")", name));
+        return skip(
+            fmt::format("exported PDUs for another dissector ({})", detail::quote_token(name)));
     }
     if (at == p.size()) return skip("exported PDUs without data");
     return Extracted{p.subspan(at), channel_for_ports(src, dst), {}};
@@ -283,7 +285,11 @@ class PcapSource final : public ChunkSource {
             Result<Extracted> got = read_packet(dlt_, Bytes(data, header->caplen), packets_);
             if (!got) return Error{got.error().message, info_.name};
             if (!got->skipped.empty()) {
-                ++skipped_[got->skipped];
+                if (skipped_.size() < kMaxSkipReasons || skipped_.contains(got->skipped)) {
+                    ++skipped_[got->skipped];
+                } else {
+                    ++skipped_otherwise_;
+                }
                 continue;
             }
             // The file was opened with nanosecond precision: tv_usec holds nanoseconds.
@@ -313,6 +319,10 @@ class PcapSource final : public ChunkSource {
         for (const auto& [why, count] : skipped_) {
             out.push_back(fmt::format("skipped {} of {} packets: {}", count, packets_, why));
         }
+        if (skipped_otherwise_ != 0) {
+            out.push_back(fmt::format("skipped {} of {} packets: other reasons (more than {})",
+                                      skipped_otherwise_, packets_, kMaxSkipReasons));
+        }
         return out;
     }
 
@@ -320,8 +330,12 @@ class PcapSource final : public ChunkSource {
     pcap_t* pcap_;
     int dlt_;
     SourceInfo info_;
+    // Reasons are counted apart up to a bound: each dissector name is one, and a crafted
+    // file could hold millions of them.
+    static constexpr std::size_t kMaxSkipReasons = 32;
     std::uint64_t packets_ = 0;
     std::map<std::string, std::uint64_t> skipped_;
+    std::uint64_t skipped_otherwise_ = 0;  // for reasons beyond kMaxSkipReasons
 };
 
 }  // namespace

@@ -1,5 +1,6 @@
 // pcap writer and reader: the written file as tshark decodes it, the reader on every link
 // type it accepts (files built here byte by byte), damaged files, and the round trip.
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -495,6 +496,28 @@ TEST(PcapReader, SkipsExportedPdusForOtherDissectors) {
     ASSERT_EQ(d.remarks.size(), 1U);
     EXPECT_EQ(d.remarks[0],
               "skipped 1 of 2 packets: exported PDUs for another dissector (\"sip\")");
+}
+
+TEST(PcapReader, SkipReasonsAreBoundedAndNamesShownEscaped) {
+    // 40 packets for 40 other dissectors, the first named with a newline and an escape:
+    // each name is its own reason, and a crafted file could hold millions.
+    std::vector<Packet> packets;
+    for (int i = 0; i < 40; ++i) {
+        const std::string name = i == 0 ? std::string("x\n\x1B[2J") : fmt::format("p{:02}", i);
+        Bytes tag = {0, 12, 0, static_cast<std::uint8_t>(name.size())};
+        tag.insert(tag.end(), name.begin(), name.end());
+        while (tag.size() % 4 != 0) tag.push_back(0);
+        tag.insert(tag.end(), {0, 0, 0, 0, 0x01});
+        packets.push_back({kT0 + i * 1000, tag});
+    }
+    const Drained d = read_memory(pcap_file(252, packets));
+    ASSERT_FALSE(d.error);
+    EXPECT_TRUE(d.chunks.empty());
+    ASSERT_EQ(d.remarks.size(), 33U);
+    EXPECT_EQ(d.remarks[31],
+              "skipped 1 of 40 packets: exported PDUs for another dissector "
+              "(\"x\\x0A\\x1B[2J\")");  // sorted after the p.. names
+    EXPECT_EQ(d.remarks[32], "skipped 8 of 40 packets: other reasons (more than 32)");
 }
 
 TEST(PcapReader, BrokenExportedPduTagsAreAnErrorAfterTheGoodPackets) {
