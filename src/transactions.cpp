@@ -171,6 +171,8 @@ void Transactions::push(Frame& frame) {
         const Frame& request = record.frame;
         awaited_ = {request.slave(), request.function(), request.bytes};
         awaited_end_ = request.end;
+    } else if (awaiting_ && count_ - *awaiting_ > kMaxFramesAwaiting) {
+        give_up_on_request(fmt::format("no answer within {} frames", kMaxFramesAwaiting));
     }
     release();
 }

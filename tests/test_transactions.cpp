@@ -2,6 +2,7 @@
 // without answer, answers without request, echoes told apart by order and timing.
 #include <gtest/gtest.h>
 
+#include "rtuscope/framer.hpp"
 #include "rtuscope/transactions.hpp"
 #include "support.hpp"
 
@@ -162,6 +163,42 @@ TEST(Transactions, AnswerFromAnotherSlaveIsUnsolicited) {
 // Records wait while a request does (they must leave in stream order) and are reused
 // once emitted: many records held at once must keep their order and contents, and the
 // awaited request its bytes.
+TEST(Transactions, NoAnswerWithinTheMostFramesHeldBehindARequest) {
+    // A raw dump (no times to time out by): a request, then only another slave's answers.
+    const Bytes other = with_crc({0x02, 0x03, 0x02, 0x00, 0x01});
+    Bytes dump = kRead;
+    for (std::size_t i = 0; i < kMaxFramesAwaiting + 10; ++i) {
+        dump.insert(dump.end(), other.begin(), other.end());
+    }
+    dump.insert(dump.end(), kReadAnswer.begin(), kReadAnswer.end());
+    // Each record's number against the frames pushed when it is emitted: how far behind.
+    std::vector<Record> r;
+    std::uint64_t pushed = 0;
+    std::uint64_t held_most = 0;
+    Transactions transactions({kNanosPerSecond, &standard_rules()}, [&](Record&& record) {
+        held_most = std::max(held_most, pushed - record.number);
+        r.push_back(std::move(record));
+    });
+    FramerOptions options;
+    options.expectation = &transactions;
+    Framer framer(options, [&](Frame& f) {
+        ++pushed;
+        transactions.push(f);
+    });
+    Chunk chunk;
+    chunk.bytes = dump;
+    framer.push(chunk);
+    framer.finish();
+    transactions.finish();
+    ASSERT_EQ(r.size(), kMaxFramesAwaiting + 12);
+    ASSERT_TRUE(has_note(r[0], note_id::no_answer));
+    EXPECT_EQ(r[0].notes.back().text, "no answer within 4096 frames");
+    EXPECT_LE(held_most, kMaxFramesAwaiting + 1);
+    EXPECT_EQ(r.back().kind, Kind::response);
+    EXPECT_EQ(r.back().request_number, 0U);  // too late for its request
+    EXPECT_TRUE(has_note(r.back(), note_id::unsolicited));
+}
+
 TEST(Transactions, ManyRecordsHeldBehindAnAwaitedRequestKeepOrderAndContents) {
     constexpr std::size_t kNoiseRuns = 100;
     Line line;

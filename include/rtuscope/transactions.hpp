@@ -48,6 +48,12 @@ struct Record {
     void clear();
 };
 
+// Frames held back behind an awaited request, at most. A Modbus answer follows its request
+// at once, so one this far behind is none; and where nothing else bounds the wait (a raw
+// dump has no times, --timeout may be long) a request followed by millions of other
+// slaves' answers held them all (1.4 GB for a 14 MB dump).
+inline constexpr std::size_t kMaxFramesAwaiting = 4096;
+
 struct TransactionOptions {
     Nanos timeout = kNanosPerSecond;  // an answer later than this is no answer
     const ProtocolRules* rules = &standard_rules();
