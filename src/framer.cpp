@@ -126,6 +126,25 @@ Framer::Framer(const FramerOptions& options, Emit emit)
       t15_(options.line.t15()),
       t35_(options.line.t35()) {}
 
+void Framer::forget_unused_channels() {
+    // Only the buffered chunks' channels are still needed. A tap has two; a crafted
+    // capture may name millions, each looked for in turn (and their number overflowed
+    // the pieces' index at 65,536: frames were given another channel's name).
+    constexpr std::uint32_t kUnused = ~std::uint32_t{0};
+    std::vector<std::uint32_t> renumbered(channels_.size(), kUnused);
+    std::vector<std::string> kept;
+    for (Piece& piece : pieces_) {
+        std::uint32_t& to = renumbered[piece.channel];
+        if (to == kUnused) {
+            to = static_cast<std::uint32_t>(kept.size());
+            kept.push_back(std::move(channels_[piece.channel]));
+        }
+        piece.channel = to;
+    }
+    channels_ = std::move(kept);
+    channels_limit_ = 2 * channels_.size() + kChannelsKept;
+}
+
 void Framer::push(const Chunk& chunk) {
     if (chunk.bytes.empty()) return;
     if (options_.chunk_is_frame) {
@@ -135,8 +154,12 @@ void Framer::push(const Chunk& chunk) {
 
     // Channel of this chunk; a change of channel is a frame boundary.
     auto channel_it = std::find(channels_.begin(), channels_.end(), chunk.channel);
-    const auto channel = static_cast<std::uint16_t>(channel_it - channels_.begin());
-    if (channel_it == channels_.end()) channels_.push_back(chunk.channel);
+    if (channel_it == channels_.end()) {
+        if (channels_.size() >= channels_limit_) forget_unused_channels();
+        channels_.push_back(chunk.channel);
+        channel_it = channels_.end() - 1;
+    }
+    const auto channel = static_cast<std::uint32_t>(channel_it - channels_.begin());
     const bool channel_changed =
         !pieces_.empty() && pos_ < bytes_.size() && pieces_.back().channel != channel;
 

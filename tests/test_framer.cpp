@@ -404,5 +404,27 @@ TEST(Framer, BytesOfALateChunkAreSpreadEvenlyToTheNanosecond) {
     EXPECT_EQ(r[2].frame.end, first_time + span);
 }
 
+// A crafted capture naming a new channel on every line: each frame keeps its own channel
+// (the 65,537th was given the first one's name), and the names are not kept for ever
+// (each was looked for among all before it: 200,000 lines took 28 s).
+TEST(Framer, ChannelsBeyondTheFirst65536KeepTheirNames) {
+    std::vector<Chunk> chunks;
+    for (int i = 0; i < 70'000; ++i) {
+        Chunk c;
+        c.time = Nanos{1'000'000'000} + i * 10 * kMs;
+        c.channel = "ch" + std::to_string(i);
+        c.bytes = kRead;
+        chunks.push_back(std::move(c));
+    }
+    Harness h;
+    const auto& r = h.run(chunks);
+    ASSERT_EQ(r.size(), 70'000U);
+    for (std::size_t i = 0; i < r.size(); i += 997) {
+        EXPECT_EQ(r[i].frame.channel, "ch" + std::to_string(i));
+        EXPECT_EQ(r[i].frame.bytes, kRead);
+    }
+    EXPECT_EQ(r.back().frame.channel, "ch69999");
+}
+
 }  // namespace
 }  // namespace rtuscope

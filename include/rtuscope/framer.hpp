@@ -121,8 +121,8 @@ class Framer {
         Nanos time = kNoTime;  // its last byte's end (the chunk's time)
         Nanos gap = kNoTime;   // silence before its first byte; kBoundary at a start
         int line = 0;
-        std::uint16_t channel = 0;
-        bool exact = false;  // it and the chunk before came alone (per-byte timing)
+        std::uint32_t channel = 0;  // in channels_
+        bool exact = false;         // it and the chunk before came alone (per-byte timing)
     };
     // The chunk byte `at` came in. Asked several times per frame, mostly for the chunk
     // asked last, so that case is inline.
@@ -145,6 +145,9 @@ class Framer {
     // The silence measured before byte `at`: kNoTime inside a chunk.
     [[nodiscard]] Nanos gap_at(std::size_t at) const;
     [[nodiscard]] Nanos gap_at(const Piece& piece, std::size_t at) const;  // `at` in `piece`
+    // Drops the channel names no buffered chunk has, renumbering the pieces'.
+    void forget_unused_channels();
+    static constexpr std::size_t kChannelsKept = 16;
 
     FramerOptions options_;
     Emit emit_;
@@ -170,7 +173,10 @@ class Framer {
     // The stream index where an attempt waits for more bytes, and how many it waits for.
     std::uint64_t waiting_at_ = ~std::uint64_t{0};
     std::size_t waiting_for_ = 0;
+    // Names of the buffered chunks' channels (and of recent ones), forgotten when unused
+    // once there are channels_limit_ of them.
     std::vector<std::string> channels_;
+    std::size_t channels_limit_ = kChannelsKept;  // forget_unused_channels() when reached
     Nanos last_end_ = kNoTime;
     bool seen_bytes_ = false;
     bool previous_chunk_single_ = false;
