@@ -17,6 +17,7 @@
 #include "rtuscope/profile.hpp"
 #include "rtuscope/sinks.hpp"
 #include "rtuscope/sources.hpp"
+#include "rtuscope/stats.hpp"
 
 namespace rtuscope::fuzz {
 
@@ -56,9 +57,9 @@ inline void drain(ChunkSource& source) {
 }
 
 // Bytes from the line through the whole chain (framer, pairing, decoder with the four
-// profiles) into every sink at once. The same bytes are read as a raw dump, as a capture
-// v1 text and as a hex log, so one input reaches the framer's length and CRC search as
-// well as the timing rules fed by the text readers' timestamps.
+// profiles) into every sink at once, the statistics in each format too. The same bytes are read as
+// a raw dump, as a capture v1 text and as a hex log, so one input reaches the framer's length and
+// CRC search as well as the timing rules fed by the text readers' timestamps.
 inline void pipeline(const std::uint8_t* data, std::size_t size) {
     for (const InputFormat format : {InputFormat::raw, InputFormat::capture, InputFormat::hex}) {
         auto source = source_from_memory(as_string(data, size), "fuzz", format);
@@ -71,6 +72,9 @@ inline void pipeline(const std::uint8_t* data, std::size_t size) {
         sinks.push_back(make_csv_sink(null_output()));
         sinks.push_back(make_jsonl_sink(null_output()));
         sinks.push_back(make_values_csv_sink(null_output()));
+        for (const StatsFormat stats : {StatsFormat::text, StatsFormat::csv, StatsFormat::jsonl}) {
+            sinks.push_back(make_stats_sink(null_output(), stats));
+        }
         auto sink = make_tee_sink(std::move(sinks));
         PipelineOptions options;
         options.bus = &seed_bus();
