@@ -389,6 +389,14 @@ class CaptureReader final : public ChunkSource {
                 out.bytes.clear();
                 return fail(error_at(i, "empty channel tag \"@\""));
             }
+            // A port's name; the framer keeps those of the chunks it holds.
+            constexpr std::size_t kMaxChannelChars = 64;
+            if (e - i - 1 > kMaxChannelChars) {
+                out.bytes.clear();
+                return fail(
+                    error_at(i, fmt::format("channel tag {} longer than {} characters",
+                                            quote_token(line.substr(i, e - i)), kMaxChannelChars)));
+            }
             out.channel.assign(line.substr(i + 1, e - i - 1));
             i = skip_space(line, e);
         }

@@ -126,10 +126,19 @@ Framer::Framer(const FramerOptions& options, Emit emit)
       t15_(options.line.t15()),
       t35_(options.line.t35()) {}
 
+std::uint32_t Framer::channel_number(const std::string& name) {
+    if (auto it = channel_numbers_.find(name); it != channel_numbers_.end()) return it->second;
+    if (channels_.size() >= channels_limit_) forget_unused_channels();
+    const auto number = static_cast<std::uint32_t>(channels_.size());
+    channels_.push_back(name);
+    channel_numbers_.emplace(name, number);
+    return number;
+}
+
 void Framer::forget_unused_channels() {
     // Only the buffered chunks' channels are still needed. A tap has two; a crafted
-    // capture may name millions, each looked for in turn (and their number overflowed
-    // the pieces' index at 65,536: frames were given another channel's name).
+    // capture may name millions (and their number overflowed the pieces' 16-bit index at
+    // 65,536: frames were given another channel's name).
     constexpr std::uint32_t kUnused = ~std::uint32_t{0};
     std::vector<std::uint32_t> renumbered(channels_.size(), kUnused);
     std::vector<std::string> kept;
@@ -142,6 +151,8 @@ void Framer::forget_unused_channels() {
         piece.channel = to;
     }
     channels_ = std::move(kept);
+    channel_numbers_.clear();
+    for (std::uint32_t i = 0; i < channels_.size(); ++i) channel_numbers_.emplace(channels_[i], i);
     channels_limit_ = 2 * channels_.size() + kChannelsKept;
 }
 
@@ -153,13 +164,10 @@ void Framer::push(const Chunk& chunk) {
     }
 
     // Channel of this chunk; a change of channel is a frame boundary.
-    auto channel_it = std::find(channels_.begin(), channels_.end(), chunk.channel);
-    if (channel_it == channels_.end()) {
-        if (channels_.size() >= channels_limit_) forget_unused_channels();
-        channels_.push_back(chunk.channel);
-        channel_it = channels_.end() - 1;
+    if (channels_.empty() || channels_[last_channel_] != chunk.channel) {
+        last_channel_ = channel_number(chunk.channel);
     }
-    const auto channel = static_cast<std::uint32_t>(channel_it - channels_.begin());
+    const std::uint32_t channel = last_channel_;
     const bool channel_changed =
         !pieces_.empty() && pos_ < bytes_.size() && pieces_.back().channel != channel;
 
@@ -547,7 +555,9 @@ void Framer::decide(bool at_end) {
         classify_unframed(pos_, resync);
     }
 
-    if (pos_ == bytes_.size() || pos_ > (1U << 16)) {
+    // What is decided goes once it is all decided, or in batches (a front erase each):
+    // 64 KiB of bytes, or 4,096 chunks, whose channel names are kept with them.
+    if (pos_ == bytes_.size() || pos_ > (1U << 16) || (pieces_.size() > 4096 && pos_ > 0)) {
         const auto drop = static_cast<std::ptrdiff_t>(pos_);
         bytes_.erase(bytes_.begin(), bytes_.begin() + drop);
         crc_ends_.clear();

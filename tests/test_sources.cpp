@@ -303,6 +303,13 @@ TEST(CaptureReader, DataLineErrorsPointAtTheBadToken) {
     EXPECT_EQ(error_text(capture("1.0\n")), "cap.rtucap:2:4: no bytes after the timestamp");
     EXPECT_EQ(error_text(capture("1.0 @A  \n")), "cap.rtucap:2:7: no bytes after the timestamp");
     EXPECT_EQ(error_text(capture("1.0 @ 01\n")), "cap.rtucap:2:5: empty channel tag \"@\"");
+    EXPECT_EQ(error_text(capture("1.0 @" + std::string(65, 'c') + " 01\n")),
+              "cap.rtucap:2:5: channel tag \"@" + std::string(39, 'c') +
+                  "...\" longer than 64 characters");
+    EXPECT_EQ(read_all(capture("1.0 @" + std::string(64, 'c') + " 01\n"), InputFormat::capture)
+                  .chunks.at(0)
+                  .channel,
+              std::string(64, 'c'));
     // Non-printable bytes are escaped so the message stays one readable line.
     EXPECT_EQ(error_text(capture("1.0 0\x01\n")), "cap.rtucap:2:5: bad hex byte \"0\\x01\"");
 }

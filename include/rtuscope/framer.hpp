@@ -11,6 +11,7 @@
 #include <cstdint>
 #include <functional>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 #include "rtuscope/chunk.hpp"
@@ -145,6 +146,8 @@ class Framer {
     // The silence measured before byte `at`: kNoTime inside a chunk.
     [[nodiscard]] Nanos gap_at(std::size_t at) const;
     [[nodiscard]] Nanos gap_at(const Piece& piece, std::size_t at) const;  // `at` in `piece`
+    // The number of a chunk's channel in channels_, a new one if need be.
+    std::uint32_t channel_number(const std::string& name);
     // Drops the channel names no buffered chunk has, renumbering the pieces'.
     void forget_unused_channels();
     static constexpr std::size_t kChannelsKept = 16;
@@ -174,9 +177,11 @@ class Framer {
     std::uint64_t waiting_at_ = ~std::uint64_t{0};
     std::size_t waiting_for_ = 0;
     // Names of the buffered chunks' channels (and of recent ones), forgotten when unused
-    // once there are channels_limit_ of them.
+    // once there are channels_limit_ of them; found by name in channel_numbers_.
     std::vector<std::string> channels_;
+    std::unordered_map<std::string, std::uint32_t> channel_numbers_;
     std::size_t channels_limit_ = kChannelsKept;  // forget_unused_channels() when reached
+    std::uint32_t last_channel_ = 0;              // the last chunk's
     Nanos last_end_ = kNoTime;
     bool seen_bytes_ = false;
     bool previous_chunk_single_ = false;
