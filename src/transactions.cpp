@@ -81,6 +81,13 @@ Record& Transactions::next_slot() {
     }
     Record& record = held(count_);
     record.clear();
+    // A slot keeps its buffers for the next record, but not the room of a huge frame (a
+    // pcap packet or hex line of garbage can be 256 KB): in time every slot would keep one.
+    constexpr std::size_t kKeptCapacity = 4096;
+    if (record.frame.bytes.capacity() > kKeptCapacity) {
+        std::vector<std::uint8_t>().swap(record.frame.bytes);
+    }
+    if (record.request.capacity() > kKeptCapacity) std::vector<std::uint8_t>().swap(record.request);
     return record;
 }
 
@@ -171,8 +178,14 @@ void Transactions::push(Frame& frame) {
         const Frame& request = record.frame;
         awaited_ = {request.slave(), request.function(), request.bytes};
         awaited_end_ = request.end;
-    } else if (awaiting_ && count_ - *awaiting_ > kMaxFramesAwaiting) {
-        give_up_on_request(fmt::format("no answer within {} frames", kMaxFramesAwaiting));
+        bytes_behind_awaited_ = 0;
+    } else if (awaiting_) {
+        bytes_behind_awaited_ += f.bytes.size();
+        if (count_ - *awaiting_ > kMaxFramesAwaiting) {
+            give_up_on_request(fmt::format("no answer within {} frames", kMaxFramesAwaiting));
+        } else if (bytes_behind_awaited_ > kMaxBytesAwaiting) {
+            give_up_on_request(fmt::format("no answer within {} bytes", kMaxBytesAwaiting));
+        }
     }
     release();
 }

@@ -163,40 +163,68 @@ TEST(Transactions, AnswerFromAnotherSlaveIsUnsolicited) {
 // Records wait while a request does (they must leave in stream order) and are reused
 // once emitted: many records held at once must keep their order and contents, and the
 // awaited request its bytes.
-TEST(Transactions, NoAnswerWithinTheMostFramesHeldBehindARequest) {
-    // A raw dump (no times to time out by): a request, then only another slave's answers.
-    const Bytes other = with_crc({0x02, 0x03, 0x02, 0x00, 0x01});
-    Bytes dump = kRead;
-    for (std::size_t i = 0; i < kMaxFramesAwaiting + 10; ++i) {
-        dump.insert(dump.end(), other.begin(), other.end());
-    }
-    dump.insert(dump.end(), kReadAnswer.begin(), kReadAnswer.end());
-    // Each record's number against the frames pushed when it is emitted: how far behind.
-    std::vector<Record> r;
-    std::uint64_t pushed = 0;
+// The records of `chunks`, and how many frames behind the newest each was emitted, at most.
+struct Emitted {
+    std::vector<Record> records;
     std::uint64_t held_most = 0;
+};
+Emitted run_counting_held(const std::vector<Chunk>& chunks, bool chunk_is_frame = false) {
+    Emitted out;
+    std::uint64_t pushed = 0;
     Transactions transactions({kNanosPerSecond, &standard_rules()}, [&](Record&& record) {
-        held_most = std::max(held_most, pushed - record.number);
-        r.push_back(std::move(record));
+        out.held_most = std::max(out.held_most, pushed - record.number);
+        out.records.push_back(std::move(record));
     });
     FramerOptions options;
+    options.chunk_is_frame = chunk_is_frame;
     options.expectation = &transactions;
     Framer framer(options, [&](Frame& f) {
         ++pushed;
         transactions.push(f);
     });
-    Chunk chunk;
-    chunk.bytes = dump;
-    framer.push(chunk);
+    for (const Chunk& chunk : chunks) framer.push(chunk);
     framer.finish();
     transactions.finish();
+    return out;
+}
+
+TEST(Transactions, NoAnswerWithinTheMostFramesHeldBehindARequest) {
+    // A raw dump (no times to time out by): a request, then only another slave's answers.
+    const Bytes other = with_crc({0x02, 0x03, 0x02, 0x00, 0x01});
+    Chunk dump;
+    dump.bytes = kRead;
+    for (std::size_t i = 0; i < kMaxFramesAwaiting + 10; ++i) {
+        dump.bytes.insert(dump.bytes.end(), other.begin(), other.end());
+    }
+    dump.bytes.insert(dump.bytes.end(), kReadAnswer.begin(), kReadAnswer.end());
+    const Emitted e = run_counting_held({dump});
+    const std::vector<Record>& r = e.records;
     ASSERT_EQ(r.size(), kMaxFramesAwaiting + 12);
     ASSERT_TRUE(has_note(r[0], note_id::no_answer));
     EXPECT_EQ(r[0].notes.back().text, "no answer within 4096 frames");
-    EXPECT_LE(held_most, kMaxFramesAwaiting + 1);
+    EXPECT_LE(e.held_most, kMaxFramesAwaiting + 1);
     EXPECT_EQ(r.back().kind, Kind::response);
     EXPECT_EQ(r.back().request_number, 0U);  // too late for its request
     EXPECT_TRUE(has_note(r.back(), note_id::unsolicited));
+}
+
+TEST(Transactions, NoAnswerWithinTheMostBytesHeldBehindARequest) {
+    // A hex log (a frame a line, no times): a request, then lines of 300,000 bytes.
+    std::vector<Chunk> lines(1);
+    lines[0].bytes = kRead;
+    for (int i = 0; i < 6; ++i) {
+        Chunk big;
+        big.bytes.assign(300'000, 0x00);
+        big.bytes[0] = 0x02;
+        big.bytes[1] = 0x03;
+        lines.push_back(std::move(big));
+    }
+    const Emitted e = run_counting_held(lines, true);
+    const std::vector<Record>& r = e.records;
+    ASSERT_EQ(r.size(), 7U);
+    ASSERT_TRUE(has_note(r[0], note_id::no_answer));
+    EXPECT_EQ(r[0].notes.back().text, "no answer within 1048576 bytes");
+    EXPECT_EQ(e.held_most, 4U);  // given up once the fourth passed 1 MiB
 }
 
 TEST(Transactions, ManyRecordsHeldBehindAnAwaitedRequestKeepOrderAndContents) {

@@ -48,11 +48,13 @@ struct Record {
     void clear();
 };
 
-// Frames held back behind an awaited request, at most. A Modbus answer follows its request
-// at once, so one this far behind is none; and where nothing else bounds the wait (a raw
-// dump has no times, --timeout may be long) a request followed by millions of other
-// slaves' answers held them all (1.4 GB for a 14 MB dump).
+// Frames, and their bytes, held back behind an awaited request, at most. A Modbus answer
+// follows its request at once, so one this far behind is none; and where nothing else
+// bounds the wait (a raw dump has no times, --timeout may be long) a request followed by
+// millions of other slaves' answers held them all (1.4 GB for a 14 MB dump), and 4,096
+// frames of a pcap or hex log can be 256 KB each.
 inline constexpr std::size_t kMaxFramesAwaiting = 4096;
+inline constexpr std::size_t kMaxBytesAwaiting = std::size_t{1} << 20;
 
 struct TransactionOptions {
     Nanos timeout = kNanosPerSecond;  // an answer later than this is no answer
@@ -102,6 +104,7 @@ class Transactions : public AnswerExpectation {
     std::optional<std::size_t> awaiting_;  // index (from the oldest) of the awaited request
     AwaitedAnswer awaited_;
     Nanos awaited_end_ = kNoTime;
+    std::size_t bytes_behind_awaited_ = 0;  // of the records held after it
     // The request answered last, until the next request: a second answer to it means
     // two devices share an address.
     struct Answered {
