@@ -65,7 +65,18 @@ void Transactions::give_up_on_request(std::string_view why) {
 void Transactions::release() {
     const std::size_t keep_from = awaiting_ ? *awaiting_ : count_;
     for (std::size_t i = 0; i < keep_from; ++i) {
-        emit_(std::move(held(0)));
+        Record& record = held(0);
+        emit_(std::move(record));
+        // The slot keeps the record's buffers for a later one, but not the room of a huge
+        // frame (a pcap packet or hex line of garbage can be 256 KB): the ring has up to
+        // 8,192 slots, and in time each would keep one.
+        constexpr std::size_t kKeptCapacity = 4096;
+        if (record.frame.bytes.capacity() > kKeptCapacity) {
+            std::vector<std::uint8_t>().swap(record.frame.bytes);
+        }
+        if (record.request.capacity() > kKeptCapacity) {
+            std::vector<std::uint8_t>().swap(record.request);
+        }
         if (++head_ == ring_.size()) head_ = 0;
         --count_;
     }
@@ -81,13 +92,6 @@ Record& Transactions::next_slot() {
     }
     Record& record = held(count_);
     record.clear();
-    // A slot keeps its buffers for the next record, but not the room of a huge frame (a
-    // pcap packet or hex line of garbage can be 256 KB): in time every slot would keep one.
-    constexpr std::size_t kKeptCapacity = 4096;
-    if (record.frame.bytes.capacity() > kKeptCapacity) {
-        std::vector<std::uint8_t>().swap(record.frame.bytes);
-    }
-    if (record.request.capacity() > kKeptCapacity) std::vector<std::uint8_t>().swap(record.request);
     return record;
 }
 
