@@ -38,6 +38,21 @@ void Record::clear() {
     values.clear();
 }
 
+namespace {
+
+// A ring slot keeps its record's buffers for a later record, but not the room of a huge
+// frame (a pcap packet or hex line of garbage can be 256 KB): the ring has up to 8,192
+// slots, and in time each would keep one.
+void give_back_huge_buffers(Record& slot) {
+    constexpr std::size_t kKeptCapacity = 4096;
+    if (slot.frame.bytes.capacity() > kKeptCapacity) {
+        std::vector<std::uint8_t>().swap(slot.frame.bytes);
+    }
+    if (slot.request.capacity() > kKeptCapacity) std::vector<std::uint8_t>().swap(slot.request);
+}
+
+}  // namespace
+
 Transactions::Transactions(TransactionOptions options, Emit emit)
     : options_(options), emit_(std::move(emit)) {}
 
@@ -65,18 +80,8 @@ void Transactions::give_up_on_request(std::string_view why) {
 void Transactions::release() {
     const std::size_t keep_from = awaiting_ ? *awaiting_ : count_;
     for (std::size_t i = 0; i < keep_from; ++i) {
-        Record& record = held(0);
-        emit_(std::move(record));
-        // The slot keeps the record's buffers for a later one, but not the room of a huge
-        // frame (a pcap packet or hex line of garbage can be 256 KB): the ring has up to
-        // 8,192 slots, and in time each would keep one.
-        constexpr std::size_t kKeptCapacity = 4096;
-        if (record.frame.bytes.capacity() > kKeptCapacity) {
-            std::vector<std::uint8_t>().swap(record.frame.bytes);
-        }
-        if (record.request.capacity() > kKeptCapacity) {
-            std::vector<std::uint8_t>().swap(record.request);
-        }
+        emit_(std::move(held(0)));
+        give_back_huge_buffers(held(0));  // the slot, emitted
         if (++head_ == ring_.size()) head_ = 0;
         --count_;
     }
