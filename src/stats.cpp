@@ -564,7 +564,7 @@ void BusStats::forget_rare_polls() {
     // A quarter at a time, so that the sweep is paid once per kMaxPolls / 4 new requests.
     using Entry = std::map<PollKey, PollStats>::iterator;
     auto rate = [this](Entry e) {
-        const std::uint64_t age = requests_ - e->second.first_request + 1;
+        const std::uint64_t age = std::max(requests_ - e->second.first_request + 1, kPollHorizon);
         return static_cast<double>(e->second.requests) / static_cast<double>(age);
     };
     std::vector<std::pair<double, Entry>> by_rate;

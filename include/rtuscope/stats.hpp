@@ -147,11 +147,17 @@ class BusStats {
     // their row, and in unlisted_exceptions().
     static constexpr std::size_t kMaxExceptionCodes = 8192;
 
-    // Distinct requests kept as polls. A full table forgets the quarter of its polls that
-    // came least often for the time they have been in it (by requests, not by clock, so
-    // untimed input is treated alike): one-off writes and rare requests go, a master's
-    // poll list stays.
-    static constexpr std::size_t kMaxPolls = 512;
+    // Distinct requests kept as polls: more than a master polls in a cycle (247 slaves x
+    // 16 registers). A full table forgets the quarter of its polls that came least often
+    // for the time they have been in it (by requests, not by clock, so untimed input is
+    // treated alike): one-off writes and rare requests go, a master's poll list stays.
+    static constexpr std::size_t kMaxPolls = 4096;
+    // That time counts as at least this many requests of the bus. A poll seen once lately
+    // has shown no rate yet: ranked by its own short time it would rank first, and the
+    // table would forget each poll of a list longer than itself before it came again (no
+    // cycle at all). Counted so, the polls seen once in that time rank alike (the lowest
+    // keys go first), and the rest of the list stays and repeats.
+    static constexpr std::uint64_t kPollHorizon = 16 * kMaxPolls;
 
     void begin(const SessionInfo& session) { session_ = session; }
     void add(const Record& record);
