@@ -44,25 +44,29 @@ int main(int argc, char** argv) {
     CLI::App app{
         "rtuscope_bench_gen: writes realistic traffic of the four seed devices and "
         "standard devices (bench/traffic.hpp) as a native capture and/or a raw dump"};
-    app.add_option("--frames", options.frames, "frames to generate")
-        ->capture_default_str()
-        ->check(CLI::Range(std::uint64_t{1}, std::uint64_t{10'000'000'000}));
+    auto* frames = app.add_option("--frames", options.frames, "frames to generate")
+                       ->capture_default_str()
+                       ->check(CLI::Range(std::uint64_t{1}, std::uint64_t{10'000'000'000}));
     app.add_option("--seed", options.seed, "seed of the traffic's random choices")
         ->capture_default_str();
-    app.add_option("--baud", options.baud, "line speed the timing follows")
-        ->capture_default_str()
-        ->check(CLI::Range(std::uint32_t{300}, std::uint32_t{4'000'000}));
-    app.add_option("--all-slaves", options.all_slaves_functions,
-                   "instead of the mix, every slave 1-247 asked functions 1..N in turn, each "
-                   "answered by an exception (the largest statistics: 247 x N rows)")
-        ->check(CLI::Range(1, 127));
+    auto* baud = app.add_option("--baud", options.baud, "line speed the timing follows")
+                     ->capture_default_str()
+                     ->check(CLI::Range(std::uint32_t{300}, std::uint32_t{4'000'000}));
+    auto* all_slaves =
+        app.add_option("--all-slaves", options.all_slaves_functions,
+                       "instead of the mix, every slave 1-247 asked functions 1..N in turn, each "
+                       "answered by an exception (the largest statistics: 247 x N rows)")
+            ->check(CLI::Range(1, 127));
     app.add_option("--capture", capture_path, "native capture to write");
     app.add_option("--raw", raw_path, "raw dump (the bytes alone) to write");
     std::uint64_t garbage_bytes = 0;
     app.add_option("--garbage", garbage_bytes,
                    "instead of traffic, this many random bytes (from --seed) into --raw")
         ->check(CLI::Range(std::uint64_t{1}, std::uint64_t{1'000'000'000}))
-        ->excludes("--capture");
+        ->excludes("--capture")
+        ->excludes(frames)
+        ->excludes(baud)
+        ->excludes(all_slaves);
     try {
         app.parse(argc, argv);
         if (capture_path.empty() && raw_path.empty()) {
