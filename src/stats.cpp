@@ -576,7 +576,7 @@ void BusStats::forget_rare_polls() {
         return a.first != b.first ? a.first < b.first : a.second->first < b.second->first;
     });
     for (auto it = by_rate.begin(); it != forgotten; ++it) {
-        if (!it->second->second.cycles.empty()) --duration_sets_;
+        forget_duration_set(it->second->second.cycles);
         polls_.erase(it->second);
     }
     forgotten_polls_ += by_rate.size() / 4;
@@ -596,19 +596,36 @@ void BusStats::count_exception_code(FunctionStats& row, std::uint8_t code) {
 
 void BusStats::add_duration(DurationCounts& counts, Nanos value) {
     if (counts.empty()) {
-        ++duration_sets_;
+        ++few_value_sets_;
         share_bins();
         counts.limit(max_distinct_);
     }
     counts.add(value);
+    if (counts.size() == kMinDistinct + 1) {
+        --few_value_sets_;
+        ++many_value_sets_;
+        share_bins();
+    }
+}
+
+void BusStats::forget_duration_set(const DurationCounts& counts) {
+    if (counts.empty()) return;
+    if (counts.size() <= kMinDistinct) {
+        --few_value_sets_;
+    } else {
+        --many_value_sets_;
+    }
 }
 
 void BusStats::share_bins() {
     // In powers of two, so that the share changes a few times, not with every new set
     // (each change visits every set).
+    // A set of at most kMinDistinct values holds no more bins than that whatever its share:
+    // the others share what those leave.
+    const std::size_t left = kBinBudget - std::min(kBinBudget, kMinDistinct * few_value_sets_);
     const std::size_t share =
-        std::clamp(std::bit_floor(kBinBudget / std::max<std::size_t>(duration_sets_, 1)),
-                   kMinDistinct, DurationCounts::kMaxDistinct);
+        std::clamp(std::bit_floor(left / std::max<std::size_t>(many_value_sets_, 1)), kMinDistinct,
+                   DurationCounts::kMaxDistinct);
     if (share == max_distinct_) return;
     max_distinct_ = share;
     for (auto& [key, s] : functions_) {

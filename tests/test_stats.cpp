@@ -401,7 +401,8 @@ TEST(StatsTurnaround, ALargeBusSharesTheBinsAmongItsRows) {
 TEST(StatsTurnaround, TheBenchmarksLargestBusKeepsToItsShare) {
     // rtuscope_bench_gen --all-slaves 8: every slave 1-247 asked functions 1-8 in turn.
     bench::TrafficOptions options;
-    options.frames = 40'000;
+    // Enough rounds for more than 16 turnarounds a row and cycles a poll: those share.
+    options.frames = 100'000;
     options.all_slaves_functions = 8;
     const BusStats s = stats_of(bench::traffic_in_memory(options).capture, InputFormat::capture);
     EXPECT_EQ(s.bins_each(), 128U);  // 2^19 among ~1,976 rows and as many polls
@@ -452,8 +453,8 @@ TEST(StatsCounts, ExceptionCodesListedUpToTheBoundAndStillCountedBeyond) {
 
 TEST(StatsCycle, ForgottenPollsGiveTheirShareOfTheBinsBack) {
     // 100,000 distinct requests, each sent twice (one cycle each): at most kMaxPolls polls
-    // are kept at a time, so each keeps that many polls' share of the bins, not the 16 of
-    // 100,000 sets.
+    // are kept at a time, whose 16 bins each leave the full bound for the others. Had the
+    // forgotten polls kept their place, 100,000 sets of 16 would leave every set 16.
     BusStats s;
     Nanos t = 0;
     for (unsigned i = 0; i < 100'000; ++i) {
@@ -471,7 +472,33 @@ TEST(StatsCycle, ForgottenPollsGiveTheirShareOfTheBinsBack) {
     s.finish();
     EXPECT_LE(s.polls().size(), BusStats::kMaxPolls);
     EXPECT_GT(s.polls().size(), BusStats::kMaxPolls / 2);
-    EXPECT_EQ(s.bins_each(), BusStats::kBinBudget / BusStats::kMaxPolls);
+    EXPECT_EQ(s.bins_each(), DurationCounts::kMaxDistinct);
+}
+
+TEST(StatsCycle, PollsOfFewCyclesLeaveTheBinsToTheRest) {
+    // One poll answered 5,000 times, its turnarounds all different (as in
+    // BinnedPercentilesAreMarkedInEveryFormat), among 3,000 other requests sent twice each:
+    // their one cycle each needs one bin, so the busy row keeps the full bound. Shared by
+    // the number of sets with values, 3,002 of them, it would have had 128 bins.
+    BusStats s;
+    Nanos t = 0;
+    for (Nanos i = 0; i < 5'000; ++i) {
+        s.add(make_record(Kind::request, kRead, t));
+        s.add(make_record(Kind::response, kAnswer, t + 20 * kMs, 4 * kMs + (i * 7 % 5'000) * 1000));
+        if (i < 3'000) {
+            const Bytes other = with_crc({0x02, 0x06, static_cast<std::uint8_t>(i >> 8),
+                                          static_cast<std::uint8_t>(i), 0, 1});
+            s.add(make_record(Kind::request, other, t + 30 * kMs));
+            s.add(make_record(Kind::request, other, t + 60 * kMs));
+        }
+        t += 100 * kMs;
+    }
+    s.finish();
+    EXPECT_EQ(s.polls().size(), 3'001U);
+    EXPECT_EQ(s.bins_each(), DurationCounts::kMaxDistinct);
+    const FunctionStats& row = s.functions().at({1, 3});
+    EXPECT_EQ(row.turnarounds.bin_width(), 8'000);  // 5,000 µs in 625 bins of 8 µs
+    EXPECT_EQ(row.turnarounds.percentile(50), 6'496'000);
 }
 
 TEST(StatsCounts, PerSlaveAndFunction) {

@@ -6,10 +6,10 @@
 // Memory does not grow with the capture, so that a sniffer can run for weeks and `stats`
 // reads a capture of any length: durations are counted per distinct value in bounded
 // tables (DurationCounts, at most ~22 KiB each), one per row and per poll, whose bins
-// share a budget of ~12 MiB once more than 512 of them have values (BusStats::
-// kBinBudget); there are at most kMaxPolls polls and 256 x 128 rows (~8 MiB of counters
-// if noise hit every slave and function); the output is written in pieces as it is made.
-// The frames themselves are never kept.
+// share a budget of ~12 MiB on a large bus (BusStats::kBinBudget); there are at most
+// kMaxPolls polls and 256 x 128 rows (~8 MiB of counters if noise hit every slave and
+// function); the output is written in pieces as it is made. The frames themselves are
+// never kept.
 #pragma once
 
 #include <array>
@@ -133,9 +133,10 @@ class BusStats {
   public:
     using Key = std::pair<std::uint8_t, std::uint8_t>;  // slave, function & 0x7F
 
-    // The bins of every row's turnarounds and every poll's cycles, shared: each holds up to
-    // DurationCounts::kMaxDistinct while at most 512 of them have values; beyond that, a
-    // power-of-two share of kBinBudget, never below kMinDistinct. A bin takes ~22 bytes
+    // The bins of every row's turnarounds and every poll's cycles, shared. A set of at
+    // most kMinDistinct values needs no more bins than that; the sets of more share what
+    // those leave of kBinBudget: DurationCounts::kMaxDistinct each while that fits, else a
+    // power of two, never below kMinDistinct. A bin takes ~22 bytes
     // (room for a batch included), so a bus of 247 slaves answering several functions
     // each, or noise that reached every row, keeps to ~12 MiB of them.
     static constexpr std::size_t kBinBudget = std::size_t{1} << 19;
@@ -194,6 +195,7 @@ class BusStats {
     void forget_rare_polls();
     void add_duration(DurationCounts& counts, Nanos value);
     void count_exception_code(FunctionStats& row, std::uint8_t code);
+    void forget_duration_set(const DurationCounts& counts);
     void share_bins();
 
     SessionInfo session_;
@@ -203,7 +205,9 @@ class BusStats {
     std::uint64_t forgotten_polls_ = 0;
     std::size_t exception_codes_ = 0;  // slave/function/code triples counted
     std::uint64_t unlisted_exceptions_ = 0;
-    std::size_t duration_sets_ = 0;  // rows' turnarounds and polls' cycles with values
+    // Rows' turnarounds and polls' cycles with 1 to kMinDistinct values, and with more.
+    std::size_t few_value_sets_ = 0;
+    std::size_t many_value_sets_ = 0;
     std::size_t max_distinct_ = DurationCounts::kMaxDistinct;  // each one's share of the bins
     BusFigures bus_;
     FunctionStats all_;
