@@ -618,10 +618,9 @@ void BusStats::forget_duration_set(const DurationCounts& counts) {
 }
 
 void BusStats::share_bins() {
-    // In powers of two, so that the share changes a few times, not with every new set
-    // (each change visits every set).
-    // A set of at most kMinDistinct values holds no more bins than that whatever its share:
-    // the others share what those leave.
+    // A set of at most kMinDistinct values holds no more bins than that whatever its share,
+    // so the others share what those leave; in powers of two, so that the share changes a
+    // few times, not with every new set (each change visits every set).
     const std::size_t left = kBinBudget - std::min(kBinBudget, kMinDistinct * few_value_sets_);
     const std::size_t share =
         std::clamp(std::bit_floor(left / std::max<std::size_t>(many_value_sets_, 1)), kMinDistinct,
