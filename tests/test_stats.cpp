@@ -208,6 +208,13 @@ class JsonChecker {
 const Bytes kRead = with_crc({0x01, 0x03, 0x00, 0x00, 0x00, 0x02});
 const Bytes kAnswer = with_crc({0x01, 0x03, 0x04, 0x00, 0x01, 0x00, 0x02});
 
+// The i-th of up to 5,000 reads (kRead at `t`), answered after 4.000-8.999 ms in 1 µs
+// steps: i * 7 % 5000 takes every value of 0-4999 once, so no two turnarounds are equal.
+void add_read_answered_distinctly(BusStats& s, Nanos i, Nanos t) {
+    s.add(make_record(Kind::request, kRead, t));
+    s.add(make_record(Kind::response, kAnswer, t + 20 * kMs, 4 * kMs + (i * 7 % 5'000) * 1000));
+}
+
 // ---------------------------------------------------------------------------------------
 
 // The percentile of `values` as DurationCounts gives it, the values added in the order
@@ -481,17 +488,15 @@ TEST(StatsCycle, PollsOfFewCyclesLeaveTheBinsToTheRest) {
     // their one cycle each needs one bin, so the busy row keeps the full bound. Shared by
     // the number of sets with values, 3,002 of them, it would have had 128 bins.
     BusStats s;
-    Nanos t = 0;
     for (Nanos i = 0; i < 5'000; ++i) {
-        s.add(make_record(Kind::request, kRead, t));
-        s.add(make_record(Kind::response, kAnswer, t + 20 * kMs, 4 * kMs + (i * 7 % 5'000) * 1000));
+        const Nanos t = i * 100 * kMs;
+        add_read_answered_distinctly(s, i, t);
         if (i < 3'000) {
             const Bytes other = with_crc({0x02, 0x06, static_cast<std::uint8_t>(i >> 8),
                                           static_cast<std::uint8_t>(i), 0, 1});
             s.add(make_record(Kind::request, other, t + 30 * kMs));
             s.add(make_record(Kind::request, other, t + 60 * kMs));
         }
-        t += 100 * kMs;
     }
     s.finish();
     EXPECT_EQ(s.polls().size(), 3'001U);
@@ -711,15 +716,9 @@ TEST(StatsCycle, APollListLongerThanTheTableKeepsMostOfItsCycles) {
 }
 
 TEST(StatsTurnaround, BinnedPercentilesAreMarkedInEveryFormat) {
-    // 5,000 answers whose turnarounds are all different: 4.000-8.999 ms in 1 µs steps
-    // (i * 7 % 5000 takes every value of 0-4999 once).
+    // 5,000 answers whose turnarounds are all different.
     BusStats s;
-    Nanos t = 0;
-    for (Nanos i = 0; i < 5'000; ++i) {
-        s.add(make_record(Kind::request, kRead, t));
-        s.add(make_record(Kind::response, kAnswer, t + 20 * kMs, 4 * kMs + (i * 7 % 5'000) * 1000));
-        t += 100 * kMs;
-    }
+    for (Nanos i = 0; i < 5'000; ++i) add_read_answered_distinctly(s, i, i * 100 * kMs);
     s.finish();
     const FunctionStats& row = s.functions().at({1, 3});
     EXPECT_EQ(row.turnarounds.bin_width(), 8'000);  // 5,000 µs in 625 bins of 8 µs
