@@ -44,30 +44,24 @@ struct RowFigures {
     const DurationCounts* cycles = nullptr;  // of the row's poll, if it has one
 };
 
-RowFigures figures(std::optional<BusStats::Key> key, const FunctionStats& s,
-                   const PollStats* poll) {
+// The row of one slave and function, or the bus-wide row (`key` nullopt, `s` the sums),
+// whose cycle is that of the bus's most frequent poll, as in the bus block.
+RowFigures row_of(const BusStats& stats, std::optional<BusStats::Key> key, const FunctionStats& s) {
     RowFigures f{key, &s, {}, {}, {}, {}, {}, {}, nullptr};
     f.p50 = s.turnarounds.percentile(50);
     f.p95 = s.turnarounds.percentile(95);
     f.p99 = s.turnarounds.percentile(99);
     f.max = s.turnarounds.percentile(100);
-    if (poll != nullptr) {
-        f.cycle_median = poll->cycles.percentile(50);
-        f.cycle_max = poll->cycles.percentile(100);
-        f.cycles = &poll->cycles;
+    if (const auto* poll = stats.main_poll(key); poll != nullptr) {
+        f.cycle_median = poll->second.cycles.percentile(50);
+        f.cycle_max = poll->second.cycles.percentile(100);
+        f.cycles = &poll->second.cycles;
     }
     return f;
 }
 
-RowFigures row_of(const BusStats& stats, const BusStats::Key& key, const FunctionStats& s) {
-    const auto* poll = stats.main_poll(key);
-    return figures(key, s, poll != nullptr ? &poll->second : nullptr);
-}
-
-// The bus-wide row; its cycle is that of the bus's most frequent poll, as in the bus block.
 RowFigures bus_row(const BusStats& stats) {
-    const auto* poll = stats.main_poll(std::nullopt);
-    return figures(std::nullopt, stats.all(), poll != nullptr ? &poll->second : nullptr);
+    return row_of(stats, std::nullopt, stats.all());
 }
 
 // Every slave and function's row, then the bus-wide one, each made as it is printed:
