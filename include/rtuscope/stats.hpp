@@ -136,9 +136,9 @@ class BusStats {
     // The bins of every row's turnarounds and every poll's cycles, shared. A set of at
     // most kMinDistinct values needs no more bins than that; the sets of more share what
     // those leave of kBinBudget: DurationCounts::kMaxDistinct each while that fits, else a
-    // power of two, never below kMinDistinct. A bin takes ~22 bytes
-    // (room for a batch included), so a bus of 247 slaves answering several functions
-    // each, or noise that reached every row, keeps to ~12 MiB of them.
+    // power of two, never below kMinDistinct. A bin takes ~22 bytes (room for a batch
+    // included), so a bus of 247 slaves answering several functions each, or noise that
+    // reached every row, keeps to ~12 MiB of them.
     static constexpr std::size_t kBinBudget = std::size_t{1} << 19;
     static constexpr std::size_t kMinDistinct = 16;
 
