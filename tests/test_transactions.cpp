@@ -160,9 +160,6 @@ TEST(Transactions, AnswerFromAnotherSlaveIsUnsolicited) {
     EXPECT_EQ(r[2].request_number, 2U);
 }
 
-// Records wait while a request does (they must leave in stream order) and are reused
-// once emitted: many records held at once must keep their order and contents, and the
-// awaited request its bytes.
 // The records of `chunks`, and how many frames behind the newest each was emitted, at most.
 struct Emitted {
     std::vector<Record> records;
@@ -227,6 +224,9 @@ TEST(Transactions, NoAnswerWithinTheMostBytesHeldBehindARequest) {
     EXPECT_EQ(e.held_most, 4U);  // given up once the fourth passed 1 MiB
 }
 
+// Records wait while a request does (they must leave in stream order) and are reused
+// once emitted: many records held at once must keep their order and contents, and the
+// awaited request its bytes.
 TEST(Transactions, ManyRecordsHeldBehindAnAwaitedRequestKeepOrderAndContents) {
     constexpr std::size_t kNoiseRuns = 100;
     Line line;
