@@ -57,9 +57,10 @@ inline void drain(ChunkSource& source) {
 }
 
 // Bytes from the line through the whole chain (framer, pairing, decoder with the four
-// profiles) into every sink at once, the statistics in each format too. The same bytes are read as
-// a raw dump, as a capture v1 text and as a hex log, so one input reaches the framer's length and
-// CRC search as well as the timing rules fed by the text readers' timestamps.
+// profiles) into every sink at once, the statistics in each format too. The same bytes
+// are read as a raw dump, as a capture v1 text and as a hex log, so one input reaches the
+// framer's length and CRC search as well as the timing rules fed by the text readers'
+// timestamps.
 inline void pipeline(const std::uint8_t* data, std::size_t size) {
     for (const InputFormat format : {InputFormat::raw, InputFormat::capture, InputFormat::hex}) {
         auto source = source_from_memory(as_string(data, size), "fuzz", format);
