@@ -89,6 +89,10 @@ void Transactions::release() {
 }
 
 Record& Transactions::next_slot() {
+    // With nothing held, start from the first slot again: after a long wait has grown the
+    // ring, ordinary traffic then keeps reusing a few slots rather than cycling through
+    // thousands, each of which would keep the buffers of the largest record it carried.
+    if (count_ == 0) head_ = 0;
     if (count_ == ring_.size()) {
         std::vector<Record> bigger(std::max<std::size_t>(16, 2 * ring_.size()));
         for (std::size_t i = 0; i < count_; ++i) bigger[i] = std::move(held(i));

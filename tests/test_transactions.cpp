@@ -2,6 +2,8 @@
 // without answer, answers without request, echoes told apart by order and timing.
 #include <gtest/gtest.h>
 
+#include <set>
+
 #include "rtuscope/framer.hpp"
 #include "rtuscope/transactions.hpp"
 #include "support.hpp"
@@ -222,6 +224,42 @@ TEST(Transactions, NoAnswerWithinTheMostBytesHeldBehindARequest) {
     ASSERT_TRUE(has_note(r[0], note_id::no_answer));
     EXPECT_EQ(r[0].notes.back().text, "no answer within 1048576 bytes");
     EXPECT_EQ(e.held_most, 4U);  // given up once the fourth passed 1 MiB
+}
+
+// A long wait grows the ring of records to thousands of slots. Ordinary traffic after it
+// must go back to a few slots: cycling through all of them, it left each one holding the
+// buffers of the largest record it had carried (a raw dump of such a wait followed by
+// 2,000-coil reads took a decode with a profile to 1.9 GB).
+TEST(Transactions, AfterALongWaitRecordsReuseTheFirstSlotsAgain) {
+    const Bytes other = with_crc({0x02, 0x03, 0x02, 0x00, 0x01});
+    Chunk dump;
+    dump.bytes = kRead;
+    for (std::size_t i = 0; i < kMaxFramesAwaiting + 10; ++i) {
+        dump.bytes.insert(dump.bytes.end(), other.begin(), other.end());
+    }
+    constexpr std::uint64_t kAfterTheWait = kMaxFramesAwaiting + 12;
+    constexpr int kPolls = 1000;
+    for (int i = 0; i < kPolls; ++i) {
+        dump.bytes.insert(dump.bytes.end(), kRead.begin(), kRead.end());
+        dump.bytes.insert(dump.bytes.end(), kReadAnswer.begin(), kReadAnswer.end());
+    }
+    std::set<const Record*> slots_after_the_wait;
+    std::uint64_t answered = 0;
+    Transactions transactions({kNanosPerSecond, &standard_rules()}, [&](Record&& record) {
+        if (record.number < kAfterTheWait) return;
+        slots_after_the_wait.insert(&record);
+        if (record.kind == Kind::response && record.request_number + 1 == record.number) {
+            ++answered;
+        }
+    });
+    FramerOptions options;
+    options.expectation = &transactions;
+    Framer framer(options, [&](Frame& f) { transactions.push(f); });
+    framer.push(dump);
+    framer.finish();
+    transactions.finish();
+    EXPECT_EQ(answered, std::uint64_t{kPolls});
+    EXPECT_LE(slots_after_the_wait.size(), 2U);
 }
 
 // Records wait while a request does (they must leave in stream order) and are reused
