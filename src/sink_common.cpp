@@ -73,9 +73,9 @@ std::string record_summary(const Record& record) {
     return text;
 }
 
-std::string unlisted_registers_text(std::size_t count) {
-    return std::to_string(count) + (count == 1 ? " register" : " registers") +
-           " not in the profile";
+void append_unlisted_registers_text(std::string& out, std::size_t count) {
+    fmt::format_to(std::back_inserter(out), "{} register{} not in the profile", count,
+                   count == 1 ? "" : "s");
 }
 
 namespace {

@@ -3,6 +3,8 @@
 #include <fmt/color.h>
 #include <fmt/format.h>
 
+#include <span>
+
 #include "rtuscope/sinks.hpp"
 #include "text_append.hpp"
 
@@ -152,7 +154,7 @@ class TextSink final : public RecordSink {
   private:
     // One line per value under its frame; registers the profile does not list are
     // gathered into runs, as devices often fill unused ranges with zeros.
-    void append_values(std::string& out, const std::vector<DecodedValue>& values) const {
+    void append_values(std::string& out, std::span<const DecodedValue> values) {
         constexpr std::string_view kIndent = "                            ";
         for (std::size_t i = 0; i < values.size();) {
             const DecodedValue& v = values[i];
@@ -239,15 +241,15 @@ class TextSink final : public RecordSink {
     }
 
     // A frame's or a value's notes at the end of its line: "  ! first; second".
-    void append_notes(std::string& out, const Notes& notes) const {
+    void append_notes(std::string& out, std::span<const Note> notes) {
         if (notes.empty()) return;
-        std::string text = "! ";
+        notes_text_ = "! ";
         for (std::size_t i = 0; i < notes.size(); ++i) {
-            if (i > 0) text += "; "sv;
-            text += notes[i].text;
+            if (i > 0) notes_text_ += "; "sv;
+            notes_text_ += notes[i].text;
         }
         out += "  "sv;
-        append_painted(out, text, fmt::terminal_color::yellow);
+        append_painted(out, notes_text_, fmt::terminal_color::yellow);
     }
 
     void append_painted(std::string& out, std::string_view text, fmt::terminal_color colour) const {
@@ -265,6 +267,7 @@ class TextSink final : public RecordSink {
     std::string column_;
     std::string noise_function_;
     std::string noise_summary_;
+    std::string notes_text_;
     Nanos first_ = kNoTime;
     Nanos previous_ = kNoTime;
 };

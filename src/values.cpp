@@ -36,9 +36,10 @@ bool is_integer_type(ValueType type) {
 }
 
 // Each value of a device read shows its words and its number: written directly, not
-// through format strings, which were most of the cost of decoding with a profile.
-std::string hex_words(Words words) {
-    std::string out;
+// through format strings, which were most of the cost of decoding with a profile. They
+// are appended to the value's own (emptied) strings, whose buffers are reused record
+// after record (reused_list.hpp).
+void append_hex_words(std::string& out, Words words) {
     append_with(out, 7 * words.size(), [&](char* p) {
         for (std::size_t i = 0; i < words.size(); ++i) {
             if (i > 0) *p++ = ' ';
@@ -46,12 +47,11 @@ std::string hex_words(Words words) {
         }
         return p;
     });
-    return out;
 }
 
-std::string decimal(std::int64_t value) {
+void append_decimal(std::string& out, std::int64_t value) {
     const fmt::format_int text(value);
-    return {text.data(), text.size()};
+    out.append(text.data(), text.size());
 }
 
 // raw / 10^decimals written exactly: the digits of raw with a decimal point put in
@@ -59,13 +59,12 @@ std::string decimal(std::int64_t value) {
 // "{:.{decimals}f}" prints for the double raw * 10^-decimals, which lies within
 // |raw| * 10^-decimals * 2^-52 of the exact value, far inside half a unit of the last
 // decimal; and it costs a fraction of formatting the double.
-std::string shifted_decimal(std::int64_t raw, int decimals) {
+void append_shifted_decimal(std::string& out, std::int64_t raw, int decimals) {
     const std::uint64_t magnitude = raw < 0 ? std::uint64_t{0} - static_cast<std::uint64_t>(raw)
                                             : static_cast<std::uint64_t>(raw);
     const fmt::format_int text(magnitude);
     const std::string_view digits(text.data(), text.size());
     const auto d = static_cast<std::size_t>(decimals);
-    std::string out;
     if (raw < 0) out += '-';
     if (digits.size() <= d) {
         out += "0.";
@@ -78,7 +77,6 @@ std::string shifted_decimal(std::int64_t raw, int decimals) {
             out += digits.substr(digits.size() - d);
         }
     }
-    return out;
 }
 
 const char* bit_text(std::uint16_t item) {
@@ -86,9 +84,11 @@ const char* bit_text(std::uint16_t item) {
 }
 
 // fmt prints IEEE negative zero as "-0" / "-0.0", which reads like a sign error.
-void drop_negative_zero(std::string& text) {
-    if (text.size() > 1 && text[0] == '-' && text.find_first_not_of("0.", 1) == std::string::npos) {
-        text.erase(0, 1);
+// `from`: where the number starts in `text`.
+void drop_negative_zero(std::string& text, std::size_t from) {
+    if (text.size() > from + 1 && text[from] == '-' &&
+        text.find_first_not_of("0.", from + 1) == std::string::npos) {
+        text.erase(from, 1);
     }
 }
 
@@ -127,46 +127,59 @@ NumberStyle style_for(const Register& reg, bool bit_table) {
 }
 
 // Compiled format strings: parsing them at run time cost as much as formatting the number.
-std::string format_number(double value, const NumberStyle& style) {
-    std::string text;
+void append_number(std::string& out, double value, const NumberStyle& style) {
+    const std::size_t from = out.size();
+    auto to = std::back_inserter(out);
     switch (style.kind) {
         case NumberStyle::Kind::fixed:
-            text = fmt::format(FMT_COMPILE("{:.{}f}"), value, style.decimals);
+            fmt::format_to(to, FMT_COMPILE("{:.{}f}"), value, style.decimals);
             break;
         case NumberStyle::Kind::integer:
             // Exact for register values; a fractional range bound keeps its fraction.
-            text = value == std::trunc(value) ? fmt::format(FMT_COMPILE("{:.0f}"), value)
-                                              : fmt::format(FMT_COMPILE("{}"), value);
+            if (value == std::trunc(value)) {
+                fmt::format_to(to, FMT_COMPILE("{:.0f}"), value);
+            } else {
+                fmt::format_to(to, FMT_COMPILE("{}"), value);
+            }
             break;
         case NumberStyle::Kind::shortest_float:
-            text = fmt::format(FMT_COMPILE("{}"), static_cast<float>(value));
+            fmt::format_to(to, FMT_COMPILE("{}"), static_cast<float>(value));
             break;
         case NumberStyle::Kind::shortest_double:
-            text = fmt::format(FMT_COMPILE("{}"), value);
+            fmt::format_to(to, FMT_COMPILE("{}"), value);
             break;
     }
-    drop_negative_zero(text);
-    return text;
+    drop_negative_zero(out, from);
 }
 
-std::string with_unit(std::string text, const std::string& unit) {
-    if (!unit.empty()) text += " " + unit;
-    return text;
+// A new note on the value; its text, empty, to be written.
+std::string& add_note(DecodedValue& v, const char* id) {
+    Note& note = v.notes.add();
+    note.id = id;
+    return note.text;
 }
 
 void check_range(const Register& reg, double value, const NumberStyle& style, DecodedValue& v) {
     const bool below = reg.min && value < *reg.min;
     const bool above = reg.max && value > *reg.max;
     if (!below && !above) return;
-    std::string text;
+    std::string& text = add_note(v, note_id::value_out_of_range);
     if (reg.min && reg.max) {
-        text = "outside " + format_number(*reg.min, style) + ".." + format_number(*reg.max, style);
+        text += "outside ";
+        append_number(text, *reg.min, style);
+        text += "..";
+        append_number(text, *reg.max, style);
     } else if (below) {
-        text = "below " + format_number(*reg.min, style);
+        text += "below ";
+        append_number(text, *reg.min, style);
     } else {
-        text = "above " + format_number(*reg.max, style);
+        text += "above ";
+        append_number(text, *reg.max, style);
     }
-    v.notes.push_back({note_id::value_out_of_range, with_unit(std::move(text), reg.unit)});
+    if (!reg.unit.empty()) {
+        text += ' ';
+        text += reg.unit;
+    }
 }
 
 // A number read from the wire: integers exactly, floats as sent.
@@ -181,14 +194,14 @@ void set_number(const Register& reg, RawNumber raw, bool bit_table, DecodedValue
     const double value = raw.is_real ? static_cast<double>(raw.real) * reg.scale
                                      : static_cast<double>(raw.integer) * reg.scale;
     if (style.kind == NumberStyle::Kind::integer && !raw.is_real) {
-        v.value = decimal(raw.integer);
+        append_decimal(v.value, raw.integer);
     } else if (style.kind == NumberStyle::Kind::fixed && !raw.is_real &&
                reg.scale == scale_for_decimals(style.decimals) &&
                std::abs(raw.integer) < (std::int64_t{1} << 51)) {
         // `decimals = N` (or a scale of exactly 10^-N) on an integer register, the usual case.
-        v.value = shifted_decimal(raw.integer, style.decimals);
+        append_shifted_decimal(v.value, raw.integer, style.decimals);
     } else {
-        v.value = format_number(value, style);
+        append_number(v.value, value, style);
     }
     v.unit = reg.unit;
     check_range(reg, value, style, v);
@@ -200,34 +213,40 @@ void set_enum(const Register& reg, std::uint32_t raw, DecodedValue& v) {
         v.value = label->second;
         return;
     }
-    v.value = decimal(raw);
-    v.notes.push_back({note_id::value_out_of_range, "no label for " + v.value});
+    append_decimal(v.value, raw);
+    add_note(v, note_id::value_out_of_range).append("no label for ").append(v.value);
 }
 
-std::string bit_names(const Register& reg, std::uint16_t word) {
-    std::string out;
+void append_bit_names(std::string& out, const Register& reg, std::uint16_t word) {
+    if (word == 0) {
+        out += "none";
+        return;
+    }
+    bool first = true;
     for (std::uint32_t bit = 0; bit < 16; ++bit) {
         if ((word & (1U << bit)) == 0) continue;
-        if (!out.empty()) out += ", ";
+        if (!first) out += ", ";
+        first = false;
         const auto name = reg.labels.find(bit);
-        out += name != reg.labels.end() ? name->second : fmt::format("bit {}", bit);
+        if (name != reg.labels.end()) {
+            out += name->second;
+        } else {
+            fmt::format_to(std::back_inserter(out), "bit {}", bit);
+        }
     }
-    return out.empty() ? "none" : out;
 }
 
-std::string ascii_text(Words words) {
-    std::string out;
+void append_ascii_text(std::string& out, Words words) {
     for (const std::uint16_t w : words) {
         for (const unsigned byte : {unsigned{w} >> 8U, unsigned{w} & 0xFFU}) {
-            if (byte == 0) return out;
+            if (byte == 0) return;
             if (byte >= 0x20 && byte < 0x7F) {
                 out += static_cast<char>(byte);
             } else {
-                out += fmt::format("\\x{:02X}", byte);
+                fmt::format_to(std::back_inserter(out), "\\x{:02X}", byte);
             }
         }
     }
-    return out;
 }
 
 std::uint32_t combine(const Register& reg, Words words) {
@@ -251,20 +270,26 @@ bool set_special_write(const Register& reg, std::uint32_t raw, DecodedValue& v) 
 // (and a device answering for) one that the manual says can only be written.
 void note_access_mismatch(const Register& reg, bool write, DecodedValue& v) {
     if (write && reg.access == Access::read) {
-        v.notes.push_back({note_id::value_read_only, "written, but the profile says read-only"});
+        add_note(v, note_id::value_read_only) += "written, but the profile says read-only";
     }
     if (!write && reg.access == Access::write) {
-        v.notes.push_back({note_id::value_write_only, "read, but the profile says write-only"});
+        add_note(v, note_id::value_write_only) += "read, but the profile says write-only";
     }
 }
 
-// The functions below fill `v`, a fresh value already in its place at the end of the
-// record's list: built elsewhere and moved in, its strings were a copy each.
+// The functions below fill `v`, an empty value already in its place at the end of the
+// record's list, writing into its strings (built elsewhere and moved in, they were a
+// copy each, and an allocation).
 void unlisted(std::uint16_t address, std::uint16_t word, bool bit_table, DecodedValue& v) {
     v.address = address;
-    v.value = bit_table ? bit_text(word) : decimal(word);
-    v.raw = bit_table ? std::string(bit_text(word)) : hex_words(Words(&word, 1));
-    v.notes.push_back({note_id::value_unlisted, "not in the profile"});
+    if (bit_table) {
+        v.value += bit_text(word);
+        v.raw += bit_text(word);
+    } else {
+        append_decimal(v.value, word);
+        append_hex_words(v.raw, Words(&word, 1));
+    }
+    add_note(v, note_id::value_unlisted) += "not in the profile";
 }
 
 // One coil or discrete input: always a single item, whatever length the profile gives.
@@ -272,7 +297,7 @@ void decode_bit(const Register& reg, std::uint16_t address, std::uint16_t item, 
                 DecodedValue& v) {
     v.address = address;
     v.name = reg.name;
-    v.raw = bit_text(item);
+    v.raw += bit_text(item);
     note_access_mismatch(reg, write, v);
     const std::uint32_t bit = item != 0 ? 1 : 0;
     if (write && set_special_write(reg, bit, v)) return;
@@ -288,13 +313,12 @@ void decode_register(const Register& reg, std::uint16_t address, Words words, bo
                      DecodedValue& v) {
     v.address = address;
     v.name = reg.name;
-    v.raw = hex_words(words);
+    append_hex_words(v.raw, words);
     note_access_mismatch(reg, write, v);
     if (is_32bit(reg.type) && words.size() < 2) {
         // Only a broken profile gets here (a 32-bit type of length 1); say so, do not guess.
-        v.notes.push_back(
-            {note_id::value_partial,
-             fmt::format("a 32-bit value needs 2 registers, the profile gives {}", words.size())});
+        fmt::format_to(std::back_inserter(add_note(v, note_id::value_partial)),
+                       "a 32-bit value needs 2 registers, the profile gives {}", words.size());
         return;
     }
     const std::uint32_t raw = is_32bit(reg.type) ? combine(reg, words) : words[0];
@@ -317,10 +341,10 @@ void decode_register(const Register& reg, std::uint16_t address, Words words, bo
             set_enum(reg, raw, v);
             break;
         case ValueType::bits:
-            v.value = bit_names(reg, words[0]);
+            append_bit_names(v.value, reg, words[0]);
             break;
         case ValueType::string:
-            v.value = ascii_text(words);
+            append_ascii_text(v.value, words);
             break;
     }
 }
@@ -330,24 +354,22 @@ void decode_register(const Register& reg, std::uint16_t address, Words words, bo
 void partial(const Register& reg, std::uint16_t address, Words present, DecodedValue& v) {
     v.address = address;
     v.name = reg.name;
-    v.raw = hex_words(present);
+    append_hex_words(v.raw, present);
     const std::size_t offset = address - reg.address;
     const std::size_t count = present.size();
     const std::uint32_t last = std::uint32_t{reg.address} + reg.length - 1;
-    const std::string span = fmt::format("0x{:04X}-0x{:04X}", reg.address, last);
-    std::string text;
+    auto text = std::back_inserter(add_note(v, note_id::value_partial));
     if (is_32bit(reg.type) && reg.length == 2 && count == 1) {
         const bool high = (offset == 0) == (reg.word_order == WordOrder::high_first);
-        text = fmt::format("only the {} word of a 32-bit value ({})", high ? "high" : "low", span);
+        fmt::format_to(text, "only the {} word of a 32-bit value", high ? "high" : "low");
     } else if (offset == 0) {
-        text = fmt::format("only the first {} of {} registers ({})", count, reg.length, span);
+        fmt::format_to(text, "only the first {} of {} registers", count, reg.length);
     } else if (offset + count == reg.length) {
-        text = fmt::format("only the last {} of {} registers ({})", count, reg.length, span);
+        fmt::format_to(text, "only the last {} of {} registers", count, reg.length);
     } else {
-        text = fmt::format("only registers {}-{} of {} ({})", offset + 1, offset + count,
-                           reg.length, span);
+        fmt::format_to(text, "only registers {}-{} of {}", offset + 1, offset + count, reg.length);
     }
-    v.notes.push_back({note_id::value_partial, std::move(text)});
+    fmt::format_to(text, " (0x{:04X}-0x{:04X})", reg.address, last);
 }
 
 // Devices often take a command word written into one half of a 32-bit register (the
@@ -358,12 +380,12 @@ void partial_or_command(const Register& reg, std::uint16_t address, Words presen
     if (write && present.size() == 1) {
         v.address = address;
         v.name = reg.name;
-        v.raw = hex_words(present);
+        append_hex_words(v.raw, present);
         if (set_special_write(reg, present[0], v)) {
             note_access_mismatch(reg, write, v);
             return;
         }
-        v = DecodedValue{};
+        v.clear();
     }
     partial(reg, address, present, v);
 }
@@ -384,13 +406,25 @@ const char* table_name(DataTable table) {
     return "";  // not a table any profile can name: everything comes out unlisted
 }
 
-std::vector<DecodedValue> decode_values(const Profile& profile, const DataBlock& block) {
-    std::vector<DecodedValue> out;
-    decode_values(profile, block, out);
-    return out;
+void DecodedValue::clear() {
+    address = 0;
+    name.clear();
+    value.clear();
+    unit.clear();
+    raw.clear();
+    notes.clear();
 }
 
-void decode_values(const Profile& profile, const DataBlock& block, std::vector<DecodedValue>& out) {
+std::vector<DecodedValue> decode_values(const Profile& profile, const DataBlock& block) {
+    ReusedList<DecodedValue> decoded;
+    decode_values(profile, block, decoded);
+    std::vector<DecodedValue> values;
+    values.reserve(decoded.size());
+    for (const DecodedValue& v : decoded) values.push_back(v);
+    return values;
+}
+
+void decode_values(const Profile& profile, const DataBlock& block, ReusedList<DecodedValue>& out) {
     const std::string_view table = block.custom_table.empty()
                                        ? std::string_view(table_name(block.table))
                                        : std::string_view(block.custom_table);
@@ -416,9 +450,9 @@ void decode_values(const Profile& profile, const DataBlock& block, std::vector<D
         if (bit_table) {
             if (reg != nullptr && reg->address != address) reg = nullptr;
             if (reg != nullptr) {
-                decode_bit(*reg, address, words[i], block.write, out.emplace_back());
+                decode_bit(*reg, address, words[i], block.write, out.add());
             } else {
-                unlisted(address, words[i], true, out.emplace_back());
+                unlisted(address, words[i], true, out.add());
             }
             ++i;
             continue;
@@ -427,7 +461,7 @@ void decode_values(const Profile& profile, const DataBlock& block, std::vector<D
         // register that does not actually cover this address.
         if (reg == nullptr || reg->address > address ||
             std::size_t{address} - reg->address >= reg->length) {
-            unlisted(address, words[i], false, out.emplace_back());
+            unlisted(address, words[i], false, out.add());
             ++i;
             continue;
         }
@@ -435,9 +469,9 @@ void decode_values(const Profile& profile, const DataBlock& block, std::vector<D
         const std::size_t present = std::min<std::size_t>(reg->length - offset, count - i);
         const Words here = words.subspan(i, present);
         if (offset == 0 && present == reg->length) {
-            decode_register(*reg, address, here, block.write, out.emplace_back());
+            decode_register(*reg, address, here, block.write, out.add());
         } else {
-            partial_or_command(*reg, address, here, block.write, out.emplace_back());
+            partial_or_command(*reg, address, here, block.write, out.add());
         }
         i += present;
     }

@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "rtuscope/bus.hpp"
 #include "rtuscope/chunk.hpp"
 #include "rtuscope/crc.hpp"
 #include "rtuscope/framer.hpp"
@@ -16,6 +17,16 @@
 namespace rtuscope::test {
 
 using Bytes = std::vector<std::uint8_t>;
+
+// The four seed devices at slaves 1-4 (where the benchmark traffic has them); false when
+// one of their bundled profiles is missing.
+[[nodiscard]] inline bool assign_seed_devices(Bus& bus) {
+    const char* const names[] = {"zb-uvi485", "sensor-analyser", "pdu485", "zyi-relay"};
+    for (std::uint8_t slave = 1; slave <= 4; ++slave) {
+        if (!bus.assign(slave, names[slave - 1])) return false;
+    }
+    return true;
+}
 
 // The bytes followed by their CRC-16/MODBUS, low byte first.
 inline Bytes with_crc(Bytes frame) {

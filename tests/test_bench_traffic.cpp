@@ -82,10 +82,7 @@ TEST_P(BenchTraffic, DecodesToWhatWasSent) {
     const Case c = GetParam();
     const Generated g = generate(100'000, c.baud);
     Bus bus;
-    const char* const seed_devices[] = {"zb-uvi485", "sensor-analyser", "pdu485", "zyi-relay"};
-    for (std::uint8_t slave = 1; slave <= 4; ++slave) {
-        ASSERT_TRUE(bus.assign(slave, seed_devices[slave - 1]));
-    }
+    ASSERT_TRUE(test::assign_seed_devices(bus));
     PipelineOptions options;
     options.bus = &bus;
     auto source = source_from_memory(

@@ -311,7 +311,8 @@ TEST(Values, BlockCuttingAString) {
     EXPECT_EQ(values[1].notes[0].text, "only the first 2 of 3 registers (0x000C-0x000E)");
 
     const DecodedValue middle = only(decode_values(meter(), holding(0x000D, {0x2D31})));
-    EXPECT_EQ(middle.notes.at(0).text, "only registers 2-2 of 3 (0x000C-0x000E)");
+    ASSERT_EQ(middle.notes.size(), 1U);
+    EXPECT_EQ(middle.notes[0].text, "only registers 2-2 of 3 (0x000C-0x000E)");
 }
 
 TEST(Values, UnlistedRegistersComeOutOneEach) {
@@ -351,7 +352,8 @@ TEST(Values, OutOfRange) {
 TEST(Values, OutOfRangeWithOneBound) {
     const DecodedValue v = only(decode_values(meter(), holding(0xFFFE, {101})));
     EXPECT_EQ(v.name, "last");
-    EXPECT_EQ(v.notes.at(0).text, "above 100");
+    ASSERT_EQ(v.notes.size(), 1U);
+    EXPECT_EQ(v.notes[0].text, "above 100");
     // reading has only a minimum (-1.0), which an unsigned value cannot go below.
     EXPECT_TRUE(only(decode_values(meter(), holding(0x0010, {0}))).notes.empty());
 }

@@ -10,6 +10,11 @@ namespace rtuscope {
 struct Note {
     const char* id = "";  // stable dotted id, e.g. "frame.crc_mismatch"; static storage
     std::string text;     // one short human phrase, e.g. "CRC BAD (expected F6 4E, got B6 4E)"
+
+    void clear() {  // keeps the text's buffer
+        id = "";
+        text.clear();
+    }
 };
 
 using Notes = std::vector<Note>;

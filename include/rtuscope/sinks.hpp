@@ -52,7 +52,7 @@ void append_csv_field(std::string& out, std::string_view text);
 std::string json_string(std::string_view text);
 void append_json_string(std::string& out, std::string_view text);
 // "3 registers not in the profile".
-std::string unlisted_registers_text(std::size_t count);
+void append_unlisted_registers_text(std::string& out, std::size_t count);
 
 // The `flags` and `notes` columns of a record: its notes, then its register values'
 // anomalies ("name: text"; so that filtering by flag finds a value out of range without
@@ -92,7 +92,11 @@ class FlagColumns {
                 add(note.id, named_);
             }
         }
-        if (unlisted > 0) add(note_id::value_unlisted, unlisted_registers_text(unlisted));
+        if (unlisted > 0) {
+            named_.clear();
+            append_unlisted_registers_text(named_, unlisted);
+            add(note_id::value_unlisted, named_);
+        }
     }
 
     std::string ids;

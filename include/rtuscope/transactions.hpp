@@ -41,7 +41,7 @@ struct Record {
     Notes notes;                        // everything noticed, frame notes first
     DecodedPdu decoded;                 // filled by the decoder stage
     const Profile* profile = nullptr;   // the device's profile, when the bus map has one
-    std::vector<DecodedValue> values;   // its register values in the device's words
+    ReusedList<DecodedValue> values;    // its register values in the device's words
 
     // Empties every field but keeps the buffers: records are reused, one per frame
     // would otherwise cost a dozen allocations.
