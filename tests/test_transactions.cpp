@@ -187,14 +187,20 @@ Emitted run_counting_held(const std::vector<Chunk>& chunks, bool chunk_is_frame 
     return out;
 }
 
-TEST(Transactions, NoAnswerWithinTheMostFramesHeldBehindARequest) {
-    // A raw dump (no times to time out by): a request, then only another slave's answers.
+// A raw dump (no times to time out by): a request, then only another slave's answers, ten
+// more than can be held behind it.
+Chunk longest_wait() {
     const Bytes other = with_crc({0x02, 0x03, 0x02, 0x00, 0x01});
     Chunk dump;
     dump.bytes = kRead;
     for (std::size_t i = 0; i < kMaxFramesAwaiting + 10; ++i) {
         dump.bytes.insert(dump.bytes.end(), other.begin(), other.end());
     }
+    return dump;
+}
+
+TEST(Transactions, NoAnswerWithinTheMostFramesHeldBehindARequest) {
+    Chunk dump = longest_wait();
     dump.bytes.insert(dump.bytes.end(), kReadAnswer.begin(), kReadAnswer.end());
     const Emitted e = run_counting_held({dump});
     const std::vector<Record>& r = e.records;
@@ -231,13 +237,8 @@ TEST(Transactions, NoAnswerWithinTheMostBytesHeldBehindARequest) {
 // buffers of the largest record it had carried (a raw dump of such a wait followed by
 // 2,000-coil reads took a decode with a profile to 1.9 GB).
 TEST(Transactions, AfterALongWaitRecordsReuseTheFirstSlotsAgain) {
-    const Bytes other = with_crc({0x02, 0x03, 0x02, 0x00, 0x01});
-    Chunk dump;
-    dump.bytes = kRead;
-    for (std::size_t i = 0; i < kMaxFramesAwaiting + 10; ++i) {
-        dump.bytes.insert(dump.bytes.end(), other.begin(), other.end());
-    }
-    constexpr std::uint64_t kAfterTheWait = kMaxFramesAwaiting + 12;
+    Chunk dump = longest_wait();
+    constexpr std::uint64_t kAfterTheWait = kMaxFramesAwaiting + 12;  // the first poll
     constexpr int kPolls = 1000;
     for (int i = 0; i < kPolls; ++i) {
         dump.bytes.insert(dump.bytes.end(), kRead.begin(), kRead.end());
