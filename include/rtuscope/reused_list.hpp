@@ -30,10 +30,7 @@ class ReusedList {
 
     [[nodiscard]] std::size_t size() const { return size_; }
     [[nodiscard]] bool empty() const { return size_ == 0; }
-    T& operator[](std::size_t i) { return items_[i]; }
     const T& operator[](std::size_t i) const { return items_[i]; }
-    T* begin() { return items_.data(); }
-    T* end() { return items_.data() + size_; }
     const T* begin() const { return items_.data(); }
     const T* end() const { return items_.data() + size_; }
     // The items in use, for code that takes any list of them.
