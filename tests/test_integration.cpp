@@ -35,10 +35,7 @@ LineSettings bus_line() {
 
 Bus seed_bus() {
     Bus bus;
-    EXPECT_TRUE(bus.assign(1, "zb-uvi485"));
-    EXPECT_TRUE(bus.assign(2, "sensor-analyser"));
-    EXPECT_TRUE(bus.assign(3, "pdu485"));
-    EXPECT_TRUE(bus.assign(4, "zyi-relay"));
+    EXPECT_TRUE(test::assign_seed_devices(bus));
     return bus;
 }
 
