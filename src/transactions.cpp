@@ -40,15 +40,29 @@ void Record::clear() {
 
 namespace {
 
-// A ring slot keeps its record's buffers for a later record, but not the room of a huge
-// frame (a pcap packet or hex line of garbage can be 256 KB): the ring has up to 8,192
-// slots, and in time each would keep one.
-void give_back_huge_buffers(Record& slot) {
+// A slot keeps its record's buffers for a later record: records are neither allocated nor
+// built anew per frame. Ordinary traffic uses the first few slots (a request, its answer,
+// a noise run between them); only a wait (frames held behind an awaited request, up to
+// 4,096) reaches further, and those slots give everything back once emitted, or each would
+// keep the largest record it ever carried: the values of a 2,000-coil write with a
+// profile are ~500 KB. The first slots keep all but the room of a huge frame (a pcap
+// packet can be 256 KB, a hex line 512 KB) and of its summary (three characters a byte
+// for a function rtuscope does not know).
+constexpr std::size_t kSlotsKeepingBuffers = 4;
+
+void give_back_buffers(Record& slot, std::size_t index) {
+    if (index >= kSlotsKeepingBuffers) {
+        // A swap: a string assigned an empty one (`slot = Record{}`) keeps its room.
+        Record emptied;
+        std::swap(slot, emptied);
+        return;
+    }
     constexpr std::size_t kKeptCapacity = 4096;
     if (slot.frame.bytes.capacity() > kKeptCapacity) {
         std::vector<std::uint8_t>().swap(slot.frame.bytes);
     }
     if (slot.request.capacity() > kKeptCapacity) std::vector<std::uint8_t>().swap(slot.request);
+    if (slot.decoded.summary.capacity() > kKeptCapacity) std::string().swap(slot.decoded.summary);
 }
 
 }  // namespace
@@ -80,26 +94,31 @@ void Transactions::give_up_on_request(std::string_view why) {
 void Transactions::release() {
     const std::size_t keep_from = awaiting_ ? *awaiting_ : count_;
     for (std::size_t i = 0; i < keep_from; ++i) {
-        emit_(std::move(held(0)));
-        give_back_huge_buffers(held(0));  // the slot, emitted
-        if (++head_ == ring_.size()) head_ = 0;
+        emit_(std::move(slots_[head_]));
+        give_back_buffers(slots_[head_], head_);
+        ++head_;
         --count_;
     }
     if (awaiting_) awaiting_ = 0;
 }
 
 Record& Transactions::next_slot() {
-    // With nothing held, start from the first slot again: after a long wait has grown the
-    // ring, ordinary traffic then keeps reusing a few slots rather than cycling through
-    // thousands, each of which would keep the buffers of the largest record it carried.
-    if (count_ == 0) head_ = 0;
-    if (count_ == ring_.size()) {
-        std::vector<Record> bigger(std::max<std::size_t>(16, 2 * ring_.size()));
-        for (std::size_t i = 0; i < count_; ++i) bigger[i] = std::move(held(i));
-        ring_ = std::move(bigger);
+    // The held records (none, or an awaited request and what came after it) move back to
+    // the first slots, so that ordinary traffic keeps reusing those: after a wait, a run of
+    // unanswered requests (each one holding only itself) would otherwise step through every
+    // slot the wait had grown. Only an awaited request is ever left behind released
+    // records, so this moves one record at most. Swaps keep each record's buffers: the
+    // awaited request's bytes stay where `awaited_` sees them.
+    if (head_ != 0) {
+        for (std::size_t i = 0; i < count_; ++i) std::swap(slots_[i], slots_[head_ + i]);
         head_ = 0;
     }
-    Record& record = held(count_);
+    if (count_ == slots_.size()) {
+        std::vector<Record> bigger(std::max<std::size_t>(16, 2 * slots_.size()));
+        for (std::size_t i = 0; i < count_; ++i) bigger[i] = std::move(slots_[i]);
+        slots_ = std::move(bigger);
+    }
+    Record& record = slots_[count_];
     record.clear();
     return record;
 }

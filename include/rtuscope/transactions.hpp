@@ -84,21 +84,18 @@ class Transactions : public AnswerExpectation {
     // only when a note is written.
     void give_up_on_request(std::string_view why);
     void release();
-    // The i-th held record, oldest first (i <= count_). No `%`: a division per access
-    // was a measurable part of a decode.
-    Record& held(std::size_t i) {
-        const std::size_t slot = head_ + i;
-        return ring_[slot < ring_.size() ? slot : slot - ring_.size()];
-    }
+    // The i-th held record, oldest first (i <= count_).
+    Record& held(std::size_t i) { return slots_[head_ + i]; }
     // The slot after the held records, emptied; it joins them when count_ grows.
     Record& next_slot();
 
     TransactionOptions options_;
     Emit emit_;
     std::uint64_t next_number_ = 1;
-    // Records held back, in a ring: a slot is reused (its buffers too) once its record is
-    // emitted, so records are neither allocated nor moved per frame.
-    std::vector<Record> ring_;
+    // Records held back, in slots [head_, head_ + count_): a slot is reused (its buffers
+    // too) once its record is emitted, so records are neither allocated nor moved per
+    // frame. head_ is back at 0 whenever a frame comes (next_slot).
+    std::vector<Record> slots_;
     std::size_t head_ = 0;   // the oldest held record's slot
     std::size_t count_ = 0;  // how many are held; the first is the awaited request, if any
     std::optional<std::size_t> awaiting_;  // index (from the oldest) of the awaited request
