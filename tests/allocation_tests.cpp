@@ -1,6 +1,7 @@
 // Allocations on the decoding path: once its buffers have grown to fit the traffic, a
 // decode allocates nothing per frame or per register value (issue #6), whichever output
-// it writes. This binary replaces the global operator new to count calls; it is kept
+// it writes; and the heap it keeps stays bounded on traffic crafted to grow it. This
+// binary replaces the global operator new to count calls and the bytes in use; it is kept
 // apart from rtuscope_tests, whose sanitizer build keeps the sanitizers' own operator new.
 #include <gtest/gtest.h>
 #include <malloc.h>
