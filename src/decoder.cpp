@@ -72,13 +72,6 @@ Bytes slice(Bytes b, std::size_t at, std::size_t n = std::numeric_limits<std::si
 // ---------------------------------------------------------------------------------
 // Formatting
 
-// "01 03 00 00"
-std::string hex_bytes(Bytes b) {
-    std::string s;
-    append_with(s, 3 * b.size(), [&](char* p) { return write_hex(p, b, true); });
-    return s;
-}
-
 // Appends what `write` writes (at most `bound` characters) in one go: a summary's fields
 // written to the stack and appended once cost one capacity check and one copy, where an
 // append per field cost that each time.
@@ -830,7 +823,7 @@ void comm_event_log_response(Decoder& d) {
         parts.push_back(fmt::format("message count {}", *message_count));
         const Bytes events = slice(covered, 6);
         std::string e = counted(events.size(), "event", "events");
-        if (!events.empty()) e += ": " + hex_bytes(events);
+        if (!events.empty()) e += ": " + data_bytes_text(events);
         parts.push_back(std::move(e));
         if (events.size() > kMaxCommEvents) {
             d.note(note_id::illegal_value,
@@ -850,7 +843,7 @@ void report_server_id_response(Decoder& d) {
     }
     const Bytes covered = d.counted_part(*count, slice(d.data, 1));
     d.out.summary = counted(covered.size(), "byte", "bytes");
-    if (!covered.empty()) d.out.summary += ": " + hex_bytes(covered);
+    if (!covered.empty()) d.out.summary += ": " + data_bytes_text(covered);
 }
 
 // ---------------------------------------------------------------------------------
@@ -907,7 +900,7 @@ bool diagnostics_echoes(std::uint16_t sub) {
 // One data word reads best as a word; anything else (00 takes any length) as bytes.
 std::string diagnostics_data_text(Bytes b) {
     if (b.size() == 2) return fmt::format("0x{:04X}", (b[0] << 8) | b[1]);
-    return hex_bytes(b);
+    return data_bytes_text(b);
 }
 
 void diagnostics(Decoder& d) {
@@ -1306,7 +1299,7 @@ void encapsulated_interface(Decoder& d) {
     const Bytes rest = slice(d.data, 1);
     d.out.summary = *mei == kMeiCanopen ? std::string("CANopen General Reference")
                                         : fmt::format("MEI type 0x{:02X}", *mei);
-    if (!rest.empty()) d.out.summary += ": " + hex_bytes(rest);
+    if (!rest.empty()) d.out.summary += ": " + data_bytes_text(rest);
     if (*mei != kMeiCanopen) {
         d.note(note_id::unknown_function, fmt::format("reserved MEI type 0x{:02X}", *mei));
     }
@@ -1345,7 +1338,7 @@ void exception_response(Decoder& d) {
 
 // Function codes without a public layout: the data as bytes (section 5 and Annex A).
 void unknown_function(Decoder& d) {
-    d.out.summary = hex_bytes(d.data);
+    d.out.summary = data_bytes_text(d.data);
     const unsigned fc = d.fc;
     std::string why;
     if ((fc >= 0x41 && fc <= 0x48) || (fc >= 0x64 && fc <= 0x6E)) {
@@ -1489,6 +1482,16 @@ void decode_pdu(std::span<const std::uint8_t> pdu, Role role,
     } else {
         decode_function(d);
     }
+}
+
+std::string data_bytes_text(std::span<const std::uint8_t> data) {
+    const auto shown = data.first(std::min(data.size(), kMaxPduDataShown));
+    std::string text;
+    append_with(text, 3 * shown.size(), [&](char* p) { return write_hex(p, shown, true); });
+    if (shown.size() < data.size()) {
+        text += fmt::format(" ... (+{} more)", data.size() - shown.size());
+    }
+    return text;
 }
 
 std::string function_name(std::uint8_t function) {

@@ -72,7 +72,7 @@ DecodedPdu decode_own_function(const FunctionOverride& f, std::span<const std::u
         }
         d.blocks.push_back(std::move(block));
     } else {
-        d.summary = hex_bytes(data, true);
+        d.summary = data_bytes_text(data);
         if (f.layout == "address_value") {
             d.notes.push_back({note_id::malformed,
                                fmt::format("{} data bytes, the profile says 4", data.size())});

@@ -754,6 +754,33 @@ TEST(DecoderUnknownFunction, DataShownAsHex) {
     EXPECT_EQ(ids(empty), Ids{"pdu.unknown_function"});
 }
 
+// A hex log line or pcap packet can be far longer than Modbus allows: its summary shows
+// what a legal frame could hold (252 data bytes, all of a legal frame's) and counts the
+// rest, which the frame's hex still shows.
+TEST(DecoderUnknownFunction, DataBeyondALegalFrameIsCounted) {
+    Bytes pdu{0x41};
+    for (std::size_t i = 0; i < kMaxPduDataShown; ++i) pdu.push_back(static_cast<std::uint8_t>(i));
+    const std::string whole = request(pdu).summary;
+    EXPECT_EQ(whole.size(), 3 * kMaxPduDataShown - 1);
+    EXPECT_EQ(whole.substr(whole.size() - 5), "FA FB");
+    pdu.resize(pdu.size() + 100'000, 0xEE);
+    EXPECT_EQ(request(pdu).summary, whole + " ... (+100000 more)");
+}
+
+TEST(DecoderDiagnostics, EchoOfDataBeyondALegalFrameIsCounted) {
+    Bytes asked{0x08, 0x00, 0x00};
+    asked.resize(asked.size() + 300'000, 0x11);
+    Bytes echoed = asked;
+    echoed.back() = 0x22;
+    const DecodedPdu d = response(echoed, asked);
+    EXPECT_EQ(ids(d), Ids{"pdu.request_mismatch"});
+    const std::string shown = data_bytes_text(std::span(asked).subspan(3, kMaxPduDataShown));
+    const std::string rest = " ... (+299748 more)";  // 300,000 - 252
+    EXPECT_EQ(d.notes[0].text, "echo differs from the request (" + shown + rest + ")");
+    const std::string echoed_shown = data_bytes_text(std::span(echoed).subspan(3, 252));
+    EXPECT_EQ(d.summary, "Return Query Data " + echoed_shown + rest);
+}
+
 TEST(DecoderUnknownFunction, Names) {
     EXPECT_EQ(function_name(0x03), "Read Holding Registers");
     EXPECT_EQ(function_name(0x83), "Read Holding Registers");

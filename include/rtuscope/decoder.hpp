@@ -49,6 +49,13 @@ void decode_pdu(std::span<const std::uint8_t> pdu, Role role,
 DecodedPdu decode_pdu(std::span<const std::uint8_t> pdu, Role role,
                       std::span<const std::uint8_t> request_pdu = {});
 
+// Data bytes shown as they are in a summary, "01 03 00 00": at most as many as a frame can
+// hold (kMaxPduDataShown), the rest counted. A hex log line or a pcap packet can be far
+// longer than Modbus allows (512 KB); all its bytes are in the frame's hex anyway, and
+// three characters a byte of summary and notes took a decode past its memory bound.
+inline constexpr std::size_t kMaxPduDataShown = kMaxAdu - 4;  // address, code, CRC
+std::string data_bytes_text(std::span<const std::uint8_t> data);
+
 // "Read Holding Registers"; for unknown codes "Function 0x41". fc & 0x80 is ignored.
 std::string function_name(std::uint8_t function);
 void append_function_name(std::string& out, std::uint8_t function);
