@@ -288,6 +288,28 @@ TEST_P(SimMasterOnBus, PollsTheFourSeedDevices) {
     EXPECT_EQ(log[12].values[0], 1);
 }
 
+// The demo's master polls until stopped: a log of its requests would grow for as long as
+// it runs (~1.5 KiB a second, unread).
+TEST(SimMaster, RunUntilStoppedKeepsNoLog) {
+    const LineSettings line = line_9600_8n1();
+    auto bus = VirtualBus::create(2, {line, false});
+    ASSERT_TRUE(bus.ok()) << bus.error().message;
+    auto pdu = start_device("pdu485", 3, (*bus)->port_path(1), line);
+    ASSERT_TRUE(pdu.ok()) << pdu.error().message;
+    // Only the PDU meter answers; one cycle is enough to have logged its reads.
+    Master::Devices devices;
+    devices.zb_uvi485 = devices.sensor_analyser = devices.zyi_relay = devices.pdu485 = 3;
+    auto master = start_master((*bus)->port_path(0), line, devices, 0, 0);
+    ASSERT_TRUE(master.ok()) << master.error().message;
+    const auto deadline = Clock::now() + std::chrono::seconds(10);
+    while ((*master)->cycles() < 1 && Clock::now() < deadline) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    (*master)->stop();
+    ASSERT_GE((*master)->cycles(), 1U);
+    EXPECT_TRUE((*master)->log().empty());
+}
+
 INSTANTIATE_TEST_SUITE_P(Sim, SimMasterOnBus, ::testing::Values(true, false),
                          [](const ::testing::TestParamInfo<bool>& param) {
                              return param.param ? "paced" : "unpaced";

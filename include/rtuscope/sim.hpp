@@ -108,7 +108,9 @@ class Master {
     virtual ~Master() = default;
     // Stops after the current request.
     virtual void stop() = 0;
-    // Every request so far (a copy, safe while the master runs).
+    // Every request so far (a copy, safe while the master runs) of a master started for a
+    // number of cycles. One run until stopped (the demo's) keeps none: it would grow for
+    // as long as the demo runs, and nothing reads it.
     [[nodiscard]] virtual std::vector<MasterEntry> log() const = 0;
     // Cycles completed so far.
     [[nodiscard]] virtual std::size_t cycles() const = 0;
