@@ -232,6 +232,17 @@ TEST(Transactions, NoAnswerWithinTheMostBytesHeldBehindARequest) {
     EXPECT_EQ(e.held_most, 4U);  // given up once the fourth passed 1 MiB
 }
 
+// Frames a raw dump (no times) and pairs its frames, handing each record to `emit`.
+void pair_raw_dump(const Chunk& dump, const Transactions::Emit& emit) {
+    Transactions transactions({kNanosPerSecond, &standard_rules()}, emit);
+    FramerOptions options;
+    options.expectation = &transactions;
+    Framer framer(options, [&](Frame& f) { transactions.push(f); });
+    framer.push(dump);
+    framer.finish();
+    transactions.finish();
+}
+
 // The records that follow the longest wait, and the slots they were emitted from.
 struct AfterTheWait {
     std::vector<Record> records;
@@ -243,17 +254,11 @@ AfterTheWait after_the_longest_wait(const Bytes& traffic) {
     dump.bytes.insert(dump.bytes.end(), traffic.begin(), traffic.end());
     constexpr std::uint64_t kFirstAfterTheWait = kMaxFramesAwaiting + 12;
     AfterTheWait after;
-    Transactions transactions({kNanosPerSecond, &standard_rules()}, [&](Record&& record) {
+    pair_raw_dump(dump, [&](Record&& record) {
         if (record.number < kFirstAfterTheWait) return;
         after.slots.insert(&record);
         after.records.push_back(record);
     });
-    FramerOptions options;
-    options.expectation = &transactions;
-    Framer framer(options, [&](Frame& f) { transactions.push(f); });
-    framer.push(dump);
-    framer.finish();
-    transactions.finish();
     return after;
 }
 
@@ -307,7 +312,7 @@ TEST(Transactions, SlotsAWaitReachedGiveTheirDecodedBuffersBack) {
     constexpr std::size_t kDecoded = 2048;    // below what even the first slots give back
     std::set<const Record*> slots_with_room;  // in the second wait
     std::uint64_t emitted = 0;
-    Transactions transactions({kNanosPerSecond, &standard_rules()}, [&](Record&& record) {
+    pair_raw_dump(dump, [&](Record&& record) {
         ++emitted;
         if (record.number < first_of_second_wait) {
             record.decoded.summary.reserve(kDecoded);  // as decoding a large record would
@@ -315,12 +320,6 @@ TEST(Transactions, SlotsAWaitReachedGiveTheirDecodedBuffersBack) {
             slots_with_room.insert(&record);
         }
     });
-    FramerOptions options;
-    options.expectation = &transactions;
-    Framer framer(options, [&](Frame& f) { transactions.push(f); });
-    framer.push(dump);
-    framer.finish();
-    transactions.finish();
     ASSERT_EQ(emitted, 2 * first_of_second_wait - 2);
     EXPECT_LE(slots_with_room.size(), 4U);
 }
@@ -332,16 +331,10 @@ TEST(Transactions, NoSlotKeepsTheSummaryOfAHugeFrame) {
     Chunk polls;
     polls.bytes = repeated({kRead, kReadAnswer}, 100);
     std::size_t arrived_with_room = 0;
-    Transactions transactions({kNanosPerSecond, &standard_rules()}, [&](Record&& record) {
+    pair_raw_dump(polls, [&](Record&& record) {
         if (record.decoded.summary.capacity() >= kHugeSummary) ++arrived_with_room;
         record.decoded.summary.reserve(kHugeSummary);
     });
-    FramerOptions options;
-    options.expectation = &transactions;
-    Framer framer(options, [&](Frame& f) { transactions.push(f); });
-    framer.push(polls);
-    framer.finish();
-    transactions.finish();
     EXPECT_EQ(arrived_with_room, 0U);
 }
 
