@@ -1487,7 +1487,7 @@ void decode_pdu(std::span<const std::uint8_t> pdu, Role role,
 std::string data_bytes_text(std::span<const std::uint8_t> data) {
     const auto shown = data.first(std::min(data.size(), kMaxPduDataShown));
     std::string text;
-    append_with(text, 3 * shown.size(), [&](char* p) { return write_hex(p, shown, true); });
+    append_hex(text, shown, true);
     if (shown.size() < data.size()) {
         text += fmt::format(" ... (+{} more)", data.size() - shown.size());
     }
