@@ -777,7 +777,8 @@ TEST(DecoderDiagnostics, EchoOfDataBeyondALegalFrameIsCounted) {
     const std::string shown = data_bytes_text(std::span(asked).subspan(3, kMaxPduDataShown));
     const std::string rest = " ... (+299748 more)";  // 300,000 - 252
     EXPECT_EQ(d.notes[0].text, "echo differs from the request (" + shown + rest + ")");
-    const std::string echoed_shown = data_bytes_text(std::span(echoed).subspan(3, 252));
+    const std::string echoed_shown =
+        data_bytes_text(std::span(echoed).subspan(3, kMaxPduDataShown));
     EXPECT_EQ(d.summary, "Return Query Data " + echoed_shown + rest);
 }
 
