@@ -14,6 +14,13 @@ namespace {
 
 using Bytes = std::vector<std::uint8_t>;
 
+// When the generated traffic starts: 2025-11-22 08:00 UTC.
+constexpr Nanos kStart = Nanos{1763798400} * kNanosPerSecond;
+
+constexpr Nanos char_time_8n1(std::uint32_t baud) {
+    return 10 * kNanosPerSecond / baud;
+}
+
 // splitmix64: tiny, fast, and the same sequence everywhere.
 class Rng {
   public:
@@ -205,12 +212,19 @@ Transaction seed_device(std::uint8_t slave, Rng& rng, Nanos t35) {
 // A USB serial adapter: bytes are handed over in batches of at most 64 bytes, when the
 // latency timer (16 ms by default, 1 ms in low-latency mode) runs out after the first
 // byte of a batch. So an answer sometimes arrives in the same chunk as its request.
+// Per byte, it is a logic analyser instead: every byte alone, when it ended.
 class Adapter {
   public:
-    Adapter(Rng& rng, const std::function<void(const Chunk&)>& out, TrafficStats& stats)
-        : rng_(rng), out_(out), stats_(stats) {}
+    Adapter(Rng& rng, const std::function<void(const Chunk&)>& out, TrafficStats& stats,
+            bool per_byte)
+        : rng_(rng), out_(out), stats_(stats), per_byte_(per_byte) {}
 
     void byte(std::uint8_t b, Nanos end) {
+        if (per_byte_) {
+            chunk_.bytes.push_back(b);
+            flush(end);
+            return;
+        }
         if (!chunk_.bytes.empty() && end > deadline_) flush(deadline_);
         if (chunk_.bytes.empty()) {
             const std::uint32_t pick = rng_.range(0, 9);
@@ -238,6 +252,7 @@ class Adapter {
     Rng& rng_;
     const std::function<void(const Chunk&)>& out_;
     TrafficStats& stats_;
+    bool per_byte_;
     Chunk chunk_;
     Nanos deadline_ = 0;
 };
@@ -262,11 +277,11 @@ TrafficStats generate_traffic(const TrafficOptions& options,
                               const std::function<void(const SentFrame&)>& on_sent) {
     TrafficStats stats;
     Rng rng(options.seed);
-    Adapter adapter(rng, on_chunk, stats);
-    const Nanos char_time = 10 * kNanosPerSecond / options.baud;  // 8N1: 10 bits
+    Adapter adapter(rng, on_chunk, stats, options.per_byte);
+    const Nanos char_time = char_time_8n1(options.baud);
     // t3.5 as the spec has it, fixed at 1.75 ms above 19200 baud.
     const Nanos t35 = options.baud > 19200 ? 1'750'000 : 35 * char_time / 10;
-    Nanos now = Nanos{1763798400} * kNanosPerSecond;
+    Nanos now = kStart;
 
     auto send = [&](const Bytes& frame, SentFrame::What what, bool damaged = false) {
         for (const std::uint8_t b : frame) {
@@ -348,6 +363,17 @@ std::vector<std::uint8_t> garbage(std::uint64_t count, std::uint64_t seed) {
     std::vector<std::uint8_t> bytes(count);
     for (auto& b : bytes) b = rng.byte();
     return bytes;
+}
+
+void garbage_per_byte(const std::vector<std::uint8_t>& bytes, std::uint32_t baud,
+                      const std::function<void(const Chunk&)>& on_chunk) {
+    Chunk chunk;
+    chunk.time = kStart;
+    for (const std::uint8_t b : bytes) {
+        chunk.time += char_time_8n1(baud);
+        chunk.bytes.assign(1, b);
+        on_chunk(chunk);
+    }
 }
 
 }  // namespace rtuscope::bench

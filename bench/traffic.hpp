@@ -19,6 +19,9 @@ struct TrafficOptions {
     // 0: the mix above. N: instead, every slave 1-247 asked functions 1..N in turn, each
     // answered by an exception: the largest statistics a bus can give (247 x N rows).
     std::uint32_t all_slaves_functions = 0;
+    // Each byte a chunk of its own, timed when it ended, instead of a USB adapter's
+    // batches: a logic analyser's export, like the captures in captures/realdata.
+    bool per_byte = false;
 };
 
 struct TrafficStats {
@@ -64,5 +67,10 @@ TrafficInMemory traffic_in_memory(const TrafficOptions& options,
 // `count` bytes of garbage, uniform and the same for a seed on every platform: a line at
 // the wrong speed or a dump of noise, where every byte starts a search for a frame.
 std::vector<std::uint8_t> garbage(std::uint64_t count, std::uint64_t seed);
+
+// Calls `on_chunk` for each of those bytes as a logic analyser exports them: a chunk of
+// its own, back to back with the one before at `baud` (8N1).
+void garbage_per_byte(const std::vector<std::uint8_t>& bytes, std::uint32_t baud,
+                      const std::function<void(const Chunk&)>& on_chunk);
 
 }  // namespace rtuscope::bench

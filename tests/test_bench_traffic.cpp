@@ -2,7 +2,8 @@
 // must come out of the pipeline frame for frame. This checks the generator, on whose
 // traffic the benchmarks' figures are measured, and the framer and pairing on a hundred
 // thousand frames of the four seed devices and standard devices, with USB batching,
-// damaged frames, junk and noise, at two speeds, as a native capture and as a raw dump.
+// damaged frames, junk and noise, at two speeds, as a native capture and as a raw dump, and
+// as a capture of one byte a line.
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
@@ -13,6 +14,7 @@
 #include <vector>
 
 #include "rtuscope/bus.hpp"
+#include "rtuscope/capture_writer.hpp"
 #include "rtuscope/pipeline.hpp"
 #include "rtuscope/sources.hpp"
 #include "support.hpp"
@@ -29,9 +31,9 @@ struct Generated {
     std::vector<SentFrame> sent;
 };
 
-Generated generate(std::uint64_t frames, std::uint32_t baud) {
+Generated generate(std::uint64_t frames, std::uint32_t baud, bool per_byte) {
     Generated g;
-    g.traffic = bench::traffic_in_memory({frames, 1, baud},
+    g.traffic = bench::traffic_in_memory({.frames = frames, .baud = baud, .per_byte = per_byte},
                                          [&](const SentFrame& s) { g.sent.push_back(s); });
     return g;
 }
@@ -65,10 +67,12 @@ std::vector<Poll> polls_of(const std::vector<SentFrame>& sent) {
 struct Case {
     std::uint32_t baud;
     InputFormat format;
+    bool per_byte = false;
 };
 
 std::string name_of(const Case& c) {
-    return fmt::format("{}_{}", c.format == InputFormat::raw ? "raw" : "capture", c.baud);
+    return fmt::format("{}_{}{}", c.format == InputFormat::raw ? "raw" : "capture", c.baud,
+                       c.per_byte ? "_per_byte" : "");
 }
 
 // For gtest's messages and ctest's test list (its bytes otherwise).
@@ -80,7 +84,7 @@ class BenchTraffic : public ::testing::TestWithParam<Case> {};
 
 TEST_P(BenchTraffic, DecodesToWhatWasSent) {
     const Case c = GetParam();
-    const Generated g = generate(100'000, c.baud);
+    const Generated g = generate(100'000, c.baud, c.per_byte);
     Bus bus;
     ASSERT_TRUE(test::assign_seed_devices(bus));
     PipelineOptions options;
@@ -178,7 +182,9 @@ TEST_P(BenchTraffic, DecodesToWhatWasSent) {
 INSTANTIATE_TEST_SUITE_P(
     , BenchTraffic,
     ::testing::Values(Case{115200, InputFormat::capture}, Case{9600, InputFormat::capture},
-                      Case{115200, InputFormat::raw}, Case{9600, InputFormat::raw}),
+                      Case{115200, InputFormat::raw}, Case{9600, InputFormat::raw},
+                      Case{115200, InputFormat::capture, true},
+                      Case{9600, InputFormat::capture, true}),
     [](const ::testing::TestParamInfo<Case>& param) { return name_of(param.param); });
 
 // The benchmarks' garbage: the same bytes for a seed, other bytes for another, and every
@@ -195,6 +201,56 @@ TEST(BenchGarbage, SameForASeedAndUniform) {
         EXPECT_GT(seen[value], 850) << "byte " << value;
         EXPECT_LT(seen[value], 1150) << "byte " << value;
     }
+}
+
+// The benchmarks' garbage one byte a line, as a logic analyser would export a line at the
+// wrong speed: every byte comes out in one record, in order. With no silence anywhere to
+// cut it, the noise runs long between chance frames (a few dozen records in all).
+TEST(BenchGarbage, PerByteCaptureKeepsEveryByte) {
+    const auto bytes = bench::garbage(100'000, 1);
+    std::string capture = bench::capture_header({.baud = 9600});
+    bench::garbage_per_byte(bytes, 9600, [&](const Chunk& c) { capture += capture_line(c); });
+    auto source = source_from_memory(capture, "garbage", InputFormat::capture);
+    ASSERT_TRUE(source);
+    test::CollectingSink sink;
+    ASSERT_TRUE(run_pipeline(**source, PipelineOptions{}, sink));
+    std::vector<std::uint8_t> all;
+    for (const Record& r : sink.records) {
+        all.insert(all.end(), r.frame.bytes.begin(), r.frame.bytes.end());
+    }
+    EXPECT_TRUE(all == bytes) << "the records' bytes are not the input's";
+    EXPECT_LT(sink.records.size(), bytes.size() / 100);
+}
+
+// The same garbage with a silence before every 100th byte, which ends whatever came before
+// it: no record spans one, however long the garbage, and so however many times the framer
+// has dropped what it had decided while it kept the bytes after.
+TEST(BenchGarbage, PerByteCaptureWithSilencesSplitsAtEverySilence) {
+    constexpr std::size_t kRun = 100;
+    const auto bytes = bench::garbage(200'000, 1);
+    std::string capture = bench::capture_header({.baud = 9600});
+    Nanos silence = 0;
+    std::size_t i = 0;
+    bench::garbage_per_byte(bytes, 9600, [&](Chunk c) {
+        if (i++ % kRun == 0) silence += 5'000'000;
+        c.time += silence;
+        capture += capture_line(c);
+    });
+    auto source = source_from_memory(capture, "garbage", InputFormat::capture);
+    ASSERT_TRUE(source);
+    test::CollectingSink sink;
+    ASSERT_TRUE(run_pipeline(**source, PipelineOptions{}, sink));
+    std::size_t at = 0;
+    int spanning = 0;
+    for (const Record& r : sink.records) {
+        const std::size_t end = at + r.frame.bytes.size();
+        if (at / kRun != (end - 1) / kRun && ++spanning <= 5) {
+            ADD_FAILURE() << fmt::format("#{}: bytes {}-{} span a silence", r.number, at, end - 1);
+        }
+        at = end;
+    }
+    EXPECT_EQ(at, bytes.size());
+    EXPECT_EQ(spanning, 0);
 }
 
 }  // namespace
