@@ -205,9 +205,13 @@ void Framer::push(const Chunk& chunk) {
     piece.channel = channel;
     piece.exact = chunk.bytes.size() == 1 && previous_chunk_single_;
     pieces_.push_back(piece);
+    if (ends_frame(gap)) frame_gaps_.push_back(piece.first);
+    const auto errors_before = static_cast<std::ptrdiff_t>(char_errors_.size());
     for (const std::uint32_t offset : chunk.char_errors) {
         if (offset < chunk.bytes.size()) char_errors_.push_back(bytes_.size() + offset);
     }
+    // Kept in order, so that a frame finds its own by binary search.
+    std::sort(char_errors_.begin() + errors_before, char_errors_.end());
     bytes_.insert(bytes_.end(), chunk.bytes.begin(), chunk.bytes.end());
     if (has_time(chunk.time)) last_end_ = chunk.time;
     previous_chunk_single_ = chunk.bytes.size() == 1;
@@ -282,15 +286,9 @@ bool Framer::gap_before(std::size_t at) const {
 
 std::size_t Framer::gap_after(std::size_t after, std::size_t limit) const {
     if (after + 1 >= limit) return limit;
-    // Gaps are only ever before the first byte of a chunk: walk the chunks, not the bytes.
-    std::size_t i = static_cast<std::size_t>(&piece_of(after + 1) - pieces_.data());
-    if (pieces_[i].first < base_ + after + 1) ++i;
-    for (; i < pieces_.size(); ++i) {
-        const auto at = static_cast<std::size_t>(pieces_[i].first - base_);
-        if (at >= limit) break;
-        if (ends_frame(pieces_[i].gap)) return at;
-    }
-    return limit;
+    const auto next = std::ranges::upper_bound(frame_gaps_, base_ + after);
+    if (next == frame_gaps_.end()) return limit;
+    return std::min(static_cast<std::size_t>(*next - base_), limit);
 }
 
 std::size_t Framer::next_gap(std::size_t after) const {
@@ -517,21 +515,26 @@ void Framer::decide(bool at_end) {
         // The last attempt here waits for more bytes than have come: nothing can change
         // before they have (slow lines hand frames over in many small chunks).
         if (!at_end && base_ + pos_ == waiting_at_ && bytes_.size() - pos_ < waiting_for_) break;
-        const Attempt here = attempt_at(pos_, at_end);
-        if (here.outcome == Outcome::need_more) {
-            waiting_at_ = base_ + pos_;
-            waiting_for_ = here.wanted;
-            break;
-        }
-        if (here.outcome == Outcome::frame) {
-            if (here.delimiter == Delimiter::crc_search) {
-                const Note searched{note_id::unknown_length, "length found by CRC"};
-                emit(pos_, here.length, RecordClass::frame, here.reading, here.delimiter, here.crc,
-                     &searched);
-            } else {
-                emit(pos_, here.length, RecordClass::frame, here.reading, here.delimiter, here.crc);
+        // Through garbage that comes a byte at a time, the position stays put while the
+        // scan for the next frame waits ahead of it: it was tried once, not at every byte.
+        if (at_end || base_ + pos_ != no_frame_at_) {
+            const Attempt here = attempt_at(pos_, at_end);
+            if (here.outcome == Outcome::need_more) {
+                waiting_at_ = base_ + pos_;
+                waiting_for_ = here.wanted;
+                break;
             }
-            continue;
+            if (here.outcome == Outcome::frame) {
+                if (here.delimiter == Delimiter::crc_search) {
+                    const Note searched{note_id::unknown_length, "length found by CRC"};
+                    emit(pos_, here.length, RecordClass::frame, here.reading, here.delimiter,
+                         here.crc, &searched);
+                } else {
+                    emit(pos_, here.length, RecordClass::frame, here.reading, here.delimiter,
+                         here.crc);
+                }
+                continue;
+            }
         }
 
         // No frame starts here: find where the next one does.
@@ -546,10 +549,12 @@ void Framer::decide(bool at_end) {
             }
         }
         if (waiting) {
-            scan_hint_ = resync;
             // Long garbage must not grow the buffer without end: what lies a whole ADU
             // before the undecided position can no longer be part of a frame.
             if (resync - pos_ > 16 * kMaxAdu) classify_unframed(pos_, resync - kMaxAdu);
+            // After what that emitted, which forgets the hint.
+            scan_hint_ = resync;
+            no_frame_at_ = base_ + pos_;
             break;
         }
         classify_unframed(pos_, resync);
@@ -567,6 +572,7 @@ void Framer::decide(bool at_end) {
         while (keep + 1 < pieces_.size() && pieces_[keep + 1].first <= base_) ++keep;
         if (bytes_.empty()) keep = pieces_.size();
         pieces_.erase(pieces_.begin(), pieces_.begin() + static_cast<std::ptrdiff_t>(keep));
+        std::erase_if(frame_gaps_, [&](std::uint64_t index) { return index < base_; });
         piece_hint_ = 0;
         std::erase_if(char_errors_, [&](std::size_t index) { return index < pos_; });
         for (std::size_t& index : char_errors_) index -= pos_;
@@ -727,12 +733,13 @@ void Framer::emit(std::size_t at, std::size_t length, RecordClass cls, Reading r
         add_timing_notes(frame, piece, at, length);
     }
     if (!char_errors_.empty()) add_char_error_note(frame, at, length);
-    for (const auto& [index, back] : time_jumps_) {
-        if (index >= at && index < at + length) {
-            frame.notes.push_back(
-                {note_id::time_backwards, fmt::format("the input's time goes back {:.3f} s here",
-                                                      static_cast<double>(back) / 1e9)});
-        }
+    // Both lists are in buffer order; a clock that goes back at every byte fills this one,
+    // so it is searched, not scanned.
+    auto jump = std::ranges::lower_bound(time_jumps_, at, {}, &TimeJump::first);
+    for (; jump != time_jumps_.end() && jump->first < at + length; ++jump) {
+        frame.notes.push_back(
+            {note_id::time_backwards, fmt::format("the input's time goes back {:.3f} s here",
+                                                  static_cast<double>(jump->second) / 1e9)});
     }
     pos_ = at + length;
     scan_hint_ = 0;
@@ -741,10 +748,9 @@ void Framer::emit(std::size_t at, std::size_t length, RecordClass cls, Reading r
 
 void Framer::add_char_error_note(Frame& frame, std::size_t at, std::size_t length) const {
     std::string hit;
-    for (const std::size_t j : char_errors_) {
-        if (j >= at && j < at + length) {
-            hit += (hit.empty() ? "" : ", ") + std::to_string(j - at + 1);
-        }
+    auto error = std::ranges::lower_bound(char_errors_, at);
+    for (; error != char_errors_.end() && *error < at + length; ++error) {
+        hit += (hit.empty() ? "" : ", ") + std::to_string(*error - at + 1);
     }
     if (!hit.empty()) {
         frame.notes.push_back({note_id::char_error, "parity/framing error on byte " + hit});

@@ -63,6 +63,25 @@ TEST(LiveFramer, CharErrorIsNotedOnTheFrameItHits) {
     EXPECT_EQ(frames[0].notes.back().text, "parity/framing error on byte 4");
 }
 
+TEST(LiveFramer, CharErrorsListedOutOfOrderNoteEachFrameTheyHit) {
+    const Bytes read = with_crc({0x01, 0x03, 0x00, 0x00, 0x00, 0x01});
+    std::vector<Frame> frames;
+    FramerOptions o;
+    Framer framer(o, [&](const Frame& f) { frames.push_back(f); });
+    Chunk chunk;
+    chunk.time = 100 * kMs;
+    chunk.bytes = read;
+    chunk.bytes.insert(chunk.bytes.end(), read.begin(), read.end());
+    chunk.char_errors = {10, 2, 6};
+    framer.push(chunk);
+    framer.finish();
+    ASSERT_EQ(frames.size(), 2U);
+    ASSERT_FALSE(frames[0].notes.empty());
+    EXPECT_EQ(frames[0].notes.back().text, "parity/framing error on byte 3, 7");
+    ASSERT_FALSE(frames[1].notes.empty());
+    EXPECT_EQ(frames[1].notes.back().text, "parity/framing error on byte 3");
+}
+
 TEST(LiveFramer, AmbiguousFrameIsDecidedWhenTheLineGoesIdle) {
     // 01 03 04 00 00 02 + CRC is a complete request, but its third byte could also be the
     // byte count of a 9-byte answer: the framer waits for more, until the line is idle.

@@ -165,14 +165,24 @@ class Framer {
     mutable CrcEndIndex crc_ends_;
     std::vector<Piece> pieces_;           // the chunks the buffered bytes came in, in order
     mutable std::size_t piece_hint_ = 0;  // where piece_of last looked: lookups go forward
-    // Bytes the UART flagged (parity/framing), as buffer indices. Rare, so sparse.
+    // The stream indices of the buffered chunks' first bytes after a silence that ends a
+    // frame, in order: searched for the next gap, where walking the chunks cost up to a
+    // frame's length of steps at every byte of per-byte captures.
+    std::vector<std::uint64_t> frame_gaps_;
+    // Bytes the UART flagged (parity/framing), as buffer indices in increasing order. Rare,
+    // so sparse.
     std::vector<std::size_t> char_errors_;
     // Where the input's clock went backwards: the index of the first byte of the chunk
-    // whose time was earlier than the byte before it, and by how much. Rare, so sparse.
-    std::vector<std::pair<std::size_t, Nanos>> time_jumps_;
+    // whose time was earlier than the byte before it, and by how much; in index order.
+    // Rare, so sparse.
+    using TimeJump = std::pair<std::size_t, Nanos>;
+    std::vector<TimeJump> time_jumps_;
     Frame frame_;  // the record being emitted, reused
     std::size_t pos_ = 0;
     std::size_t scan_hint_ = 0;  // bytes before it are known to start no frame
+    // The stream index of an undecided position whose attempt found no frame: one that
+    // more bytes cannot change, as for the bytes before scan_hint_.
+    std::uint64_t no_frame_at_ = ~std::uint64_t{0};
     // The stream index where an attempt waits for more bytes, and how many it waits for.
     std::uint64_t waiting_at_ = ~std::uint64_t{0};
     std::size_t waiting_for_ = 0;
