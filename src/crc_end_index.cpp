@@ -53,33 +53,37 @@ std::uint16_t crc_cycle_place(std::uint16_t reg) {
     return kPlaces[reg];
 }
 
-bool CrcEndIndex::may_hold(std::span<const std::uint8_t> bytes, std::uint16_t target,
-                           std::size_t from, std::size_t to) {
+bool CrcEndIndex::may_hold(Window& window, std::span<const std::uint8_t> bytes,
+                           std::uint16_t target, std::size_t from, std::size_t to) {
     if (to - from > kMaxWindow) return true;
-    if (counts_.empty()) counts_.resize(65536);
+    if (window.counts.empty()) window.counts.resize(65536);
     // Searches through garbage follow each other a byte apart: indexed a block ahead,
     // not a byte or two a call.
     if (to - 1 - from_ >= keys_.size()) {
         index_to(bytes, std::min(bytes.size(), to - 1 + kMaxWindow));
     }
-    if (from < window_from_ || from > window_to_) {
-        empty_window();
-        window_from_ = window_to_ = from;
+    if (from < window.from || from > window.to) {
+        empty(window);
+        window.from = window.to = from;
     }
     // Slid forward to start at `from` and to reach `to` at least: it then covers no more
     // than the longer of this search and the last one (kMaxWindow at most).
-    for (; window_from_ < from; ++window_from_) --counts_[keys_[window_from_ - from_]];
-    for (; window_to_ < to; ++window_to_) ++counts_[keys_[window_to_ - from_]];
-    return counts_[target] != 0;
+    for (; window.from < from; ++window.from) --window.counts[keys_[window.from - from_]];
+    for (; window.to < to; ++window.to) ++window.counts[keys_[window.to - from_]];
+    return window.counts[target] != 0;
 }
 
-void CrcEndIndex::empty_window() {
-    for (std::size_t k = window_from_; k < window_to_; ++k) --counts_[keys_[k - from_]];
-    window_from_ = window_to_ = 0;
+void CrcEndIndex::empty(Window& window) {
+    for (std::size_t k = window.from; k < window.to; ++k) --window.counts[keys_[k - from_]];
+    window.from = window.to = 0;
+}
+
+void CrcEndIndex::empty_windows() {
+    for (Window& window : windows_) empty(window);
 }
 
 void CrcEndIndex::start_at(std::size_t at) {
-    empty_window();
+    empty_windows();
     from_ = at;
     zero_runs_.assign(1, 0);
     keys_.assign(1, kFixed);  // Z = 0, a fixed point

@@ -206,5 +206,43 @@ TEST(CrcEndIndex, FindsLengthsAtTheEdgesOfEverySearch) {
     EXPECT_GT(edges, 100U);  // the planted frames and the runs of zeros and FF
 }
 
+// A per-byte capture of garbage: each new byte repeats the search from where the framer
+// waits, a byte longer, and a hit in it the search of what follows from the hit's end,
+// again a byte longer. The two searches alternate, each with its own window, over bytes
+// that are now and then replaced (the index starts over: both windows must too).
+TEST(CrcEndIndex, SearchesAlternatingWithTheSearchesInsideThemFindEveryLength) {
+    std::mt19937 random(5);
+    CrcEndIndex index;
+    std::size_t inner_searches = 0;
+    for (int round = 0; round < 3; ++round) {
+        const std::vector<std::uint8_t> bytes = test_bytes(random, 1200);
+        index.clear();
+        for (std::size_t at = 0; at + 4 <= bytes.size(); at += 1 + random() % 40) {
+            const std::size_t most = std::min<std::size_t>(256, bytes.size() - at);
+            for (std::size_t last = 4; last <= most; last += 1 + random() % 5) {
+                std::vector<std::size_t> outer;
+                index.find(bytes, at, 4, last, [&](std::size_t n) {
+                    outer.push_back(n);
+                    const std::size_t next = at + n;
+                    const std::size_t inner_last = std::min(last, bytes.size() - next);
+                    if (inner_last < 4) return false;
+                    std::vector<std::size_t> inner;
+                    index.find(bytes, next, 4, inner_last, [&](std::size_t m) {
+                        inner.push_back(m);
+                        return false;
+                    });
+                    ++inner_searches;
+                    EXPECT_EQ(inner, checked_lengths(bytes, next, 4, inner_last))
+                        << round << ": " << at << "+" << n << " to " << inner_last;
+                    return false;
+                });
+                ASSERT_EQ(outer, checked_lengths(bytes, at, 4, last))
+                    << round << ": " << at << " to " << last;
+            }
+        }
+    }
+    EXPECT_GT(inner_searches, 1000U);
+}
+
 }  // namespace
 }  // namespace rtuscope

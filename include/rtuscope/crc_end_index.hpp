@@ -14,10 +14,13 @@
 // cycle, so the test becomes key(at + n) == target(at), where key(k) is Z(k)'s cycle and its
 // place on it less k. Keys are worked out once per byte for all starts, and a search is a
 // scan of them for one number, eight at a time, made only when a count of the keys in a
-// window sliding along with the searches says the number is there (garbage: rarely).
+// window sliding along with the searches says the number is there (garbage: rarely). A
+// search from within another's `found` (the framer looking at what follows a length) has
+// a window of its own, so that the two do not each start the other's afresh.
 #pragma once
 
 #include <algorithm>
+#include <array>
 #include <cstdint>
 #include <cstring>
 #include <span>
@@ -31,7 +34,7 @@ class CrcEndIndex {
   public:
     // The bytes were moved or replaced: what was indexed is forgotten.
     void clear() {
-        empty_window();
+        empty_windows();
         zero_runs_.clear();
         keys_.clear();
         unfound_ = 0;
@@ -61,7 +64,15 @@ class CrcEndIndex {
         }
         index_to(bytes, at);
         const std::uint16_t target = target_of(at);
-        if (!may_hold(bytes, target, at + first, at + last + 1)) return false;
+        Window& window = windows_[std::min(depth_, windows_.size() - 1)];
+        if (!may_hold(window, bytes, target, at + first, at + last + 1)) return false;
+        // A search made by `found` counts with the next window.
+        auto found_within = [&](std::size_t n) {
+            ++depth_;
+            const bool taken = found(n);
+            --depth_;
+            return taken;
+        };
         std::size_t k = at + first;
         const std::size_t end = at + last + 1;
         // Indexed a block ahead of the scan, not to `last` at once: most searches outside
@@ -72,11 +83,11 @@ class CrcEndIndex {
             for (; k + kLanes <= block_end; k += kLanes) {
                 if (!any_of_8(&keys_[k - from_], target)) continue;
                 for (std::size_t j = k; j < k + kLanes; ++j) {
-                    if (keys_[j - from_] == target && found(j - at)) return true;
+                    if (keys_[j - from_] == target && found_within(j - at)) return true;
                 }
             }
             for (; k < block_end; ++k) {
-                if (keys_[k - from_] == target && found(k - at)) return true;
+                if (keys_[k - from_] == target && found_within(k - at)) return true;
             }
         }
         return false;
@@ -123,15 +134,25 @@ class CrcEndIndex {
         return (halves[0] | halves[1]) != 0;
     }
 
+    // How many keys of [from, to) have each value (made on first use: 64 KiB). A window is
+    // never longer than kMaxWindow keys, so a count fits a byte.
+    struct Window {
+        std::vector<std::uint8_t> counts;
+        std::size_t from = 0;
+        std::size_t to = 0;
+    };
+    static constexpr std::size_t kMaxWindow = 255;
+
     // Whether a key in [from, to) may equal `target`: false only when none does. Through
     // garbage nearly every search finds nothing, and a scan of up to 253 keys per byte was
     // most of the framer's work there; a count per key value over a window of the keys
     // that slides along with the searches answers it by one look. A search that starts
     // before the window or past its end starts it afresh there; one longer than a window
     // can be is answered "may" and scanned.
-    bool may_hold(std::span<const std::uint8_t> bytes, std::uint16_t target, std::size_t from,
-                  std::size_t to);
-    void empty_window();
+    bool may_hold(Window& window, std::span<const std::uint8_t> bytes, std::uint16_t target,
+                  std::size_t from, std::size_t to);
+    void empty(Window& window);
+    void empty_windows();
     // Starts the index afresh at `at`.
     void start_at(std::size_t at);
     // Indexes the bytes up to `to`, inclusive (`to` at most bytes.size()).
@@ -145,12 +166,10 @@ class CrcEndIndex {
     // and where the last one ended.
     std::size_t unfound_ = 0;
     std::size_t unfound_to_ = 0;
-    // How many keys of [window_from_, window_to_) have each value (made on first use:
-    // 64 KiB). A window is never longer than kMaxWindow keys, so a count fits a byte.
-    static constexpr std::size_t kMaxWindow = 255;
-    std::vector<std::uint8_t> counts_;
-    std::size_t window_from_ = 0;
-    std::size_t window_to_ = 0;
+    // A search's window, and that of the searches its `found` makes (a search per length
+    // it offers, from where that length ends); deeper searches share the last.
+    std::array<Window, 2> windows_;
+    std::size_t depth_ = 0;  // searches under way
 };
 
 // The cycle and place of a register value under the zero-byte step (for the unit test):
