@@ -733,17 +733,20 @@ void Framer::emit(std::size_t at, std::size_t length, RecordClass cls, Reading r
         add_timing_notes(frame, piece, at, length);
     }
     if (!char_errors_.empty()) add_char_error_note(frame, at, length);
-    // Both lists are in buffer order; a clock that goes back at every byte fills this one,
-    // so it is searched, not scanned.
+    if (!time_jumps_.empty()) add_time_jump_notes(frame, at, length);
+    pos_ = at + length;
+    scan_hint_ = 0;
+    emit_(frame);
+}
+
+void Framer::add_time_jump_notes(Frame& frame, std::size_t at, std::size_t length) const {
+    // Searched, not scanned: a clock that goes back at every byte fills the list.
     auto jump = std::ranges::lower_bound(time_jumps_, at, {}, &TimeJump::first);
     for (; jump != time_jumps_.end() && jump->first < at + length; ++jump) {
         frame.notes.push_back(
             {note_id::time_backwards, fmt::format("the input's time goes back {:.3f} s here",
                                                   static_cast<double>(jump->second) / 1e9)});
     }
-    pos_ = at + length;
-    scan_hint_ = 0;
-    emit_(frame);
 }
 
 void Framer::add_char_error_note(Frame& frame, std::size_t at, std::size_t length) const {

@@ -143,6 +143,8 @@ class Framer {
                           std::size_t length) const;
     // Which bytes of the frame at `at` the UART flagged, if any.
     void add_char_error_note(Frame& frame, std::size_t at, std::size_t length) const;
+    // Where in the frame at `at` the input's clock went back, if anywhere.
+    void add_time_jump_notes(Frame& frame, std::size_t at, std::size_t length) const;
     // The silence measured before byte `at`: kNoTime inside a chunk.
     [[nodiscard]] Nanos gap_at(std::size_t at) const;
     [[nodiscard]] Nanos gap_at(const Piece& piece, std::size_t at) const;  // `at` in `piece`
