@@ -46,17 +46,23 @@ TEST(Parmrk, EscapeSplitAcrossReads) {
     EXPECT_EQ(errors, (std::vector<std::uint32_t>{1}));
 }
 
-TEST(LiveFramer, CharErrorIsNotedOnTheFrameItHits) {
+// The frames of `times` reads of one register from slave 1, in one chunk whose bytes
+// `char_errors` (offsets in the chunk) the UART flagged.
+std::vector<Frame> frame_reads_with_char_errors(int times, std::vector<std::uint32_t> char_errors) {
     const Bytes read = with_crc({0x01, 0x03, 0x00, 0x00, 0x00, 0x01});
     std::vector<Frame> frames;
-    FramerOptions o;
-    Framer framer(o, [&](const Frame& f) { frames.push_back(f); });
+    Framer framer(FramerOptions{}, [&](const Frame& f) { frames.push_back(f); });
     Chunk chunk;
     chunk.time = 100 * kMs;
-    chunk.bytes = read;
-    chunk.char_errors = {3};
+    for (int i = 0; i < times; ++i) chunk.bytes.insert(chunk.bytes.end(), read.begin(), read.end());
+    chunk.char_errors = std::move(char_errors);
     framer.push(chunk);
     framer.finish();
+    return frames;
+}
+
+TEST(LiveFramer, CharErrorIsNotedOnTheFrameItHits) {
+    const std::vector<Frame> frames = frame_reads_with_char_errors(1, {3});
     ASSERT_EQ(frames.size(), 1U);
     ASSERT_FALSE(frames[0].notes.empty());
     EXPECT_STREQ(frames[0].notes.back().id, note_id::char_error);
@@ -64,17 +70,7 @@ TEST(LiveFramer, CharErrorIsNotedOnTheFrameItHits) {
 }
 
 TEST(LiveFramer, CharErrorsListedOutOfOrderNoteEachFrameTheyHit) {
-    const Bytes read = with_crc({0x01, 0x03, 0x00, 0x00, 0x00, 0x01});
-    std::vector<Frame> frames;
-    FramerOptions o;
-    Framer framer(o, [&](const Frame& f) { frames.push_back(f); });
-    Chunk chunk;
-    chunk.time = 100 * kMs;
-    chunk.bytes = read;
-    chunk.bytes.insert(chunk.bytes.end(), read.begin(), read.end());
-    chunk.char_errors = {10, 2, 6};
-    framer.push(chunk);
-    framer.finish();
+    const std::vector<Frame> frames = frame_reads_with_char_errors(2, {10, 2, 6});
     ASSERT_EQ(frames.size(), 2U);
     ASSERT_FALSE(frames[0].notes.empty());
     EXPECT_EQ(frames[0].notes.back().text, "parity/framing error on byte 3, 7");
