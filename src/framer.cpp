@@ -16,13 +16,25 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <functional>
 #include <limits>
+#include <span>
+#include <vector>
 
 namespace rtuscope {
 namespace {
 
 // A gap before the first byte of the input or of a new channel: always a boundary.
 constexpr Nanos kBoundary = std::numeric_limits<Nanos>::max();
+
+// The items of `list`, in order of their buffer index (`index_of`), that lie within the
+// frame of `length` bytes at `at`: found by search, as a list can hold one a byte.
+template <class T, class IndexOf = std::identity>
+std::span<const T> within_frame(const std::vector<T>& list, std::size_t at, std::size_t length,
+                                IndexOf index_of = {}) {
+    const auto first = std::ranges::lower_bound(list, at, {}, index_of);
+    return {first, std::ranges::lower_bound(first, list.end(), at + length, {}, index_of)};
+}
 
 // A silence the input measured (a boundary or an unknown gap is none).
 bool is_measured(Nanos gap) {
@@ -516,8 +528,9 @@ void Framer::decide(bool at_end) {
         // before they have (slow lines hand frames over in many small chunks).
         if (!at_end && base_ + pos_ == waiting_at_ && bytes_.size() - pos_ < waiting_for_) break;
         // Through garbage that comes a byte at a time, the position stays put while the
-        // scan for the next frame waits ahead of it: it was tried once, not at every byte.
-        if (at_end || base_ + pos_ != no_frame_at_) {
+        // scan for the next frame waits ahead of it (scan_hint_): it was tried once, not at
+        // every byte.
+        if (at_end || scan_hint_ <= pos_) {
             const Attempt here = attempt_at(pos_, at_end);
             if (here.outcome == Outcome::need_more) {
                 waiting_at_ = base_ + pos_;
@@ -554,7 +567,6 @@ void Framer::decide(bool at_end) {
             if (resync - pos_ > 16 * kMaxAdu) classify_unframed(pos_, resync - kMaxAdu);
             // After what that emitted, which forgets the hint.
             scan_hint_ = resync;
-            no_frame_at_ = base_ + pos_;
             break;
         }
         classify_unframed(pos_, resync);
@@ -740,20 +752,17 @@ void Framer::emit(std::size_t at, std::size_t length, RecordClass cls, Reading r
 }
 
 void Framer::add_time_jump_notes(Frame& frame, std::size_t at, std::size_t length) const {
-    // Searched, not scanned: a clock that goes back at every byte fills the list.
-    auto jump = std::ranges::lower_bound(time_jumps_, at, {}, &TimeJump::first);
-    for (; jump != time_jumps_.end() && jump->first < at + length; ++jump) {
+    for (const auto& [index, back] : within_frame(time_jumps_, at, length, &TimeJump::first)) {
         frame.notes.push_back(
             {note_id::time_backwards, fmt::format("the input's time goes back {:.3f} s here",
-                                                  static_cast<double>(jump->second) / 1e9)});
+                                                  static_cast<double>(back) / 1e9)});
     }
 }
 
 void Framer::add_char_error_note(Frame& frame, std::size_t at, std::size_t length) const {
     std::string hit;
-    auto error = std::ranges::lower_bound(char_errors_, at);
-    for (; error != char_errors_.end() && *error < at + length; ++error) {
-        hit += (hit.empty() ? "" : ", ") + std::to_string(*error - at + 1);
+    for (const std::size_t index : within_frame(char_errors_, at, length)) {
+        hit += (hit.empty() ? "" : ", ") + std::to_string(index - at + 1);
     }
     if (!hit.empty()) {
         frame.notes.push_back({note_id::char_error, "parity/framing error on byte " + hit});

@@ -181,10 +181,9 @@ class Framer {
     std::vector<TimeJump> time_jumps_;
     Frame frame_;  // the record being emitted, reused
     std::size_t pos_ = 0;
-    std::size_t scan_hint_ = 0;  // bytes before it are known to start no frame
-    // The stream index of an undecided position whose attempt found no frame: one that
-    // more bytes cannot change, as for the bytes before scan_hint_.
-    std::uint64_t no_frame_at_ = ~std::uint64_t{0};
+    // When past pos_: the bytes from pos_ up to it are known to start no frame, which more
+    // bytes cannot change. Set only once pos_ has been tried; forgotten when a record goes.
+    std::size_t scan_hint_ = 0;
     // The stream index where an attempt waits for more bytes, and how many it waits for.
     std::uint64_t waiting_at_ = ~std::uint64_t{0};
     std::size_t waiting_for_ = 0;
