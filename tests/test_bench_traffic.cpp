@@ -203,17 +203,31 @@ TEST(BenchGarbage, SameForASeedAndUniform) {
     }
 }
 
-// The benchmarks' garbage one byte a line, as a logic analyser would export a line at the
-// wrong speed: every byte comes out in one record, in order. With no silence anywhere to
-// cut it, the noise runs long between chance frames (a few dozen records in all).
-TEST(BenchGarbage, PerByteCaptureKeepsEveryByte) {
-    const auto bytes = bench::garbage(100'000, 1);
+// `bytes` one a line at 9600 baud, as a logic analyser would export a line at the wrong
+// speed; with `silence_every`, a 5 ms silence before every so many bytes. Decoded into
+// `sink`.
+void decode_per_byte(const std::vector<std::uint8_t>& bytes, std::size_t silence_every,
+                     test::CollectingSink& sink) {
     std::string capture = bench::capture_header({.baud = 9600});
-    bench::garbage_per_byte(bytes, 9600, [&](const Chunk& c) { capture += capture_line(c); });
+    Nanos silence = 0;
+    std::size_t i = 0;
+    bench::garbage_per_byte(bytes, 9600, [&](Chunk c) {
+        if (silence_every != 0 && i++ % silence_every == 0) silence += 5'000'000;
+        c.time += silence;
+        capture += capture_line(c);
+    });
     auto source = source_from_memory(capture, "garbage", InputFormat::capture);
     ASSERT_TRUE(source);
-    test::CollectingSink sink;
     ASSERT_TRUE(run_pipeline(**source, PipelineOptions{}, sink));
+}
+
+// The benchmarks' garbage one byte a line: every byte comes out in one record, in order.
+// With no silence anywhere to cut it, the noise runs long between chance frames (a few
+// dozen records in all).
+TEST(BenchGarbage, PerByteCaptureKeepsEveryByte) {
+    const auto bytes = bench::garbage(100'000, 1);
+    test::CollectingSink sink;
+    ASSERT_NO_FATAL_FAILURE(decode_per_byte(bytes, 0, sink));
     std::vector<std::uint8_t> all;
     for (const Record& r : sink.records) {
         all.insert(all.end(), r.frame.bytes.begin(), r.frame.bytes.end());
@@ -228,18 +242,8 @@ TEST(BenchGarbage, PerByteCaptureKeepsEveryByte) {
 TEST(BenchGarbage, PerByteCaptureWithSilencesSplitsAtEverySilence) {
     constexpr std::size_t kRun = 100;
     const auto bytes = bench::garbage(200'000, 1);
-    std::string capture = bench::capture_header({.baud = 9600});
-    Nanos silence = 0;
-    std::size_t i = 0;
-    bench::garbage_per_byte(bytes, 9600, [&](Chunk c) {
-        if (i++ % kRun == 0) silence += 5'000'000;
-        c.time += silence;
-        capture += capture_line(c);
-    });
-    auto source = source_from_memory(capture, "garbage", InputFormat::capture);
-    ASSERT_TRUE(source);
     test::CollectingSink sink;
-    ASSERT_TRUE(run_pipeline(**source, PipelineOptions{}, sink));
+    ASSERT_NO_FATAL_FAILURE(decode_per_byte(bytes, kRun, sink));
     std::size_t at = 0;
     int spanning = 0;
     for (const Record& r : sink.records) {
