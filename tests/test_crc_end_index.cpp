@@ -209,15 +209,22 @@ TEST(CrcEndIndex, FindsLengthsAtTheEdgesOfEverySearch) {
 // A per-byte capture of garbage: each new byte repeats the search from where the framer
 // waits, a byte longer, and a hit in it the search of what follows from the hit's end,
 // again a byte longer. The two searches alternate, each with its own window, over bytes
-// that are now and then replaced (the index starts over: both windows must too).
+// that are now and then replaced (the index is cleared) or from starts that jump back
+// or far ahead (it starts over with both windows counting: both must start over too).
 TEST(CrcEndIndex, SearchesAlternatingWithTheSearchesInsideThemFindEveryLength) {
     std::mt19937 random(5);
     CrcEndIndex index;
     std::size_t inner_searches = 0;
+    std::size_t jumps = 0;
     for (int round = 0; round < 3; ++round) {
-        const std::vector<std::uint8_t> bytes = test_bytes(random, 1200);
+        const std::vector<std::uint8_t> bytes = test_bytes(random, 3000);
         index.clear();
         for (std::size_t at = 0; at + 4 <= bytes.size(); at += 1 + random() % 40) {
+            if (random() % 8 == 0) {
+                ++jumps;
+                at = random() % 2 == 0 ? at / 2 : at + 300 + random() % 300;
+                if (at + 4 > bytes.size()) break;
+            }
             const std::size_t most = std::min<std::size_t>(256, bytes.size() - at);
             for (std::size_t last = 4; last <= most; last += 1 + random() % 5) {
                 std::vector<std::size_t> outer;
@@ -242,6 +249,7 @@ TEST(CrcEndIndex, SearchesAlternatingWithTheSearchesInsideThemFindEveryLength) {
         }
     }
     EXPECT_GT(inner_searches, 1000U);
+    EXPECT_GT(jumps, 20U);
 }
 
 }  // namespace
