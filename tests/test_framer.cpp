@@ -1,6 +1,11 @@
 // The framer on each real-world case of issue #2, fed through the pairing stage as in the
 // pipeline (the pairing tells the framer which answer the bus awaits).
+#include <fmt/format.h>
 #include <gtest/gtest.h>
+
+#include <map>
+#include <set>
+#include <sstream>
 
 #include "rtuscope/framer.hpp"
 #include "support.hpp"
@@ -425,6 +430,101 @@ TEST(Framer, ChannelsBeyondTheFirst65536KeepTheirNames) {
     }
     EXPECT_EQ(r.back().frame.channel, "ch69999");
 }
+
+// UART errors and clock jumps are listed by their place in the framer's buffer, which
+// moves whenever it drops what it has decided: every 64 KiB of frames, every 4,096 chunks
+// of garbage it cannot decide yet. Through streams long enough for both, each must still be
+// noted on the record that holds its byte, at that byte (the first and the last of a frame
+// included).
+class MarksOnLongStreams : public ::testing::TestWithParam<std::vector<std::size_t>> {};
+
+TEST_P(MarksOnLongStreams, EachOnTheRecordAndByteItHit) {
+    // Garbage with reads in it, handed over in chunks of the sizes given, in turn.
+    Bytes all;
+    std::uint32_t state = 99;
+    while (all.size() < 200'000) {
+        state = state * 1103515245U + 12345U;
+        if (state % 50 == 0) {
+            all.insert(all.end(), kRead.begin(), kRead.end());
+        } else {
+            all.push_back(static_cast<std::uint8_t>(state >> 16));
+        }
+    }
+    const Nanos ch = Line().char_time();
+    std::vector<Chunk> chunks;
+    std::set<std::size_t> errors;                   // every 7th byte
+    std::map<std::size_t, std::string> jump_notes;  // by the first byte after the jump
+    Nanos clock = 1000 * kNanosPerSecond;
+    std::size_t n = 0;
+    for (std::size_t at = 0; at < all.size(); at += n) {
+        const std::vector<std::size_t>& sizes = GetParam();
+        n = std::min(sizes[chunks.size() % sizes.size()], all.size() - at);
+        Chunk c;
+        c.bytes.assign(all.begin() + static_cast<std::ptrdiff_t>(at),
+                       all.begin() + static_cast<std::ptrdiff_t>(at + n));
+        for (std::size_t i = at; i < at + n; ++i) {
+            if (i % 7 == 3) {
+                errors.insert(i);
+                c.char_errors.push_back(static_cast<std::uint32_t>(i - at));
+            }
+        }
+        if (chunks.size() % 97 == 50) {
+            // This chunk's last byte ends before the chunk before it ended.
+            const Nanos back = kNanosPerSecond + static_cast<Nanos>(chunks.size()) * kMs;
+            clock -= back;
+            jump_notes[at] = fmt::format("the input's time goes back {:.3f} s here",
+                                         static_cast<double>(back) / 1e9);
+        } else {
+            clock += static_cast<Nanos>(n) * ch;
+        }
+        c.time = clock;
+        chunks.push_back(std::move(c));
+    }
+
+    std::vector<Frame> records;
+    Framer framer(FramerOptions{}, [&](const Frame& f) { records.push_back(f); });
+    for (const Chunk& c : chunks) framer.push(c);
+    framer.finish();
+
+    std::set<std::size_t> noted_errors;
+    // By the record's first byte: a frame whose CRC checks may hold a jump, or two.
+    std::map<std::size_t, std::vector<std::string>> noted_jumps;
+    std::size_t first = 0;
+    for (const Frame& r : records) {
+        for (const Note& note : r.notes) {
+            if (note.id == std::string_view(note_id::char_error)) {
+                const std::string_view prefix = "parity/framing error on byte ";
+                ASSERT_TRUE(note.text.starts_with(prefix)) << note.text;
+                std::istringstream list(note.text.substr(prefix.size()));
+                std::string item;
+                while (std::getline(list, item, ',')) {
+                    noted_errors.insert(first + std::stoul(item) - 1);
+                }
+            } else if (note.id == std::string_view(note_id::time_backwards)) {
+                noted_jumps[first].push_back(note.text);
+            }
+        }
+        first += r.bytes.size();
+    }
+    ASSERT_EQ(first, all.size());
+    EXPECT_EQ(noted_errors, errors);
+    // Each jump on the record that holds the byte after it.
+    std::map<std::size_t, std::vector<std::string>> expected_jumps;
+    std::size_t record_first = 0;
+    auto record = records.begin();
+    for (const auto& [at, text] : jump_notes) {
+        while (record_first + record->bytes.size() <= at) record_first += (record++)->bytes.size();
+        expected_jumps[record_first].push_back(text);
+    }
+    EXPECT_EQ(noted_jumps, expected_jumps);
+    EXPECT_GT(jump_notes.size(), 2U);
+}
+
+// Large batches (the buffer is dropped every 64 KiB), and one byte at a time (garbage is
+// dropped every 4,096 chunks with the bytes after the undecided position kept).
+INSTANTIATE_TEST_SUITE_P(Framer, MarksOnLongStreams,
+                         ::testing::Values(std::vector<std::size_t>{1999, 3, 61, 5},
+                                           std::vector<std::size_t>{1}));
 
 }  // namespace
 }  // namespace rtuscope
