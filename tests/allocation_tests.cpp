@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "rtuscope/capture_writer.hpp"
 #include "rtuscope/pipeline.hpp"
 #include "rtuscope/sinks.hpp"
 #include "rtuscope/sources.hpp"
@@ -82,54 +83,80 @@ namespace {
 
 using test::Bytes;
 
-void append_frame(std::string& out, const Bytes& frame) {
-    const Bytes sent = test::with_crc(frame);
-    out.append(sent.begin(), sent.end());
-}
-
-// A read of `count` registers from 0x0000 and its answer, with words that differ from
-// register to register (out of range, unlabelled: every kind of value note).
-void append_read(std::string& out, std::uint8_t slave, std::uint8_t count) {
-    append_frame(out, {slave, 0x03, 0x00, 0x00, 0x00, count});
-    Bytes answer = {slave, 0x03, static_cast<std::uint8_t>(2 * count)};
-    for (unsigned i = 0; i < count; ++i) {
-        answer.push_back(static_cast<std::uint8_t>(0x40 + 7 * i));
-        answer.push_back(static_cast<std::uint8_t>(0x13 * i));
-    }
-    append_frame(out, answer);
-}
-
-// `cycles` polls of the four seed devices as a raw dump: whole tables with named,
-// scaled, enumerated, 32-bit and unlisted registers, and a write to a read-only one.
-std::string seed_device_polls(int cycles) {
-    std::string dump;
+// The frames of `cycles` polls of the four seed devices: whole tables with named, scaled,
+// enumerated, 32-bit and unlisted registers, and a write to a read-only one.
+std::vector<Bytes> seed_device_polls(int cycles) {
+    std::vector<Bytes> frames;
+    // A read of `count` registers from 0x0000 and its answer, with words that differ from
+    // register to register (out of range, unlabelled: every kind of value note).
+    auto read = [&](std::uint8_t slave, std::uint8_t count) {
+        frames.push_back(test::with_crc({slave, 0x03, 0x00, 0x00, 0x00, count}));
+        Bytes answer = {slave, 0x03, static_cast<std::uint8_t>(2 * count)};
+        for (unsigned i = 0; i < count; ++i) {
+            answer.push_back(static_cast<std::uint8_t>(0x40 + 7 * i));
+            answer.push_back(static_cast<std::uint8_t>(0x13 * i));
+        }
+        frames.push_back(test::with_crc(answer));
+    };
     for (int c = 0; c < cycles; ++c) {
-        append_read(dump, 1, 1);   // zb-uvi485
-        append_read(dump, 2, 20);  // sensor-analyser: named and unlisted registers
-        append_read(dump, 3, 29);  // pdu485: the whole table
-        const Bytes write = {3, 0x06, 0x00, 0x00, 0x12, 0x34};  // voltage is read-only
-        append_frame(dump, write);
-        append_frame(dump, write);
-        append_read(dump, 4, 16);  // zyi-relay: labelled channels
+        read(1, 1);   // zb-uvi485
+        read(2, 20);  // sensor-analyser: named and unlisted registers
+        read(3, 29);  // pdu485: the whole table
+        const Bytes write = test::with_crc({3, 0x06, 0x00, 0x00, 0x12, 0x34});  // read-only
+        frames.push_back(write);
+        frames.push_back(write);
+        read(4, 16);  // zyi-relay: labelled channels
     }
+    return frames;
+}
+
+std::string raw_dump(const std::vector<Bytes>& frames) {
+    std::string dump;
+    for (const Bytes& frame : frames) dump.append(frame.begin(), frame.end());
     return dump;
+}
+
+// The frames as a native capture at 115200 baud, 5 ms of silence after each: a frame a
+// line as an adapter hands them over, or a byte a line as a logic analyser exports them.
+std::string timed_capture(const std::vector<Bytes>& frames, bool per_byte) {
+    LineSettings line;
+    line.baud = 115200;
+    std::string capture = "# rtuscope capture v1\n# serial 115200 8N1\n";
+    Chunk chunk;
+    chunk.time = 1'000'000'000;
+    for (const Bytes& frame : frames) {
+        chunk.time += 5'000'000;
+        if (per_byte) {
+            for (const std::uint8_t byte : frame) {
+                chunk.time += line.char_time();
+                chunk.bytes.assign(1, byte);
+                capture += capture_line(chunk);
+            }
+        } else {
+            chunk.time += static_cast<Nanos>(frame.size()) * line.char_time();
+            chunk.bytes = frame;
+            capture += capture_line(chunk);
+        }
+    }
+    return capture;
 }
 
 using MakeSink = std::function<std::unique_ptr<RecordSink>(FILE*)>;
 
-// What decoding a raw dump of the seed devices' bus (1-4) into `make_sink`'s output counts.
+// What decoding the input of the seed devices' bus (1-4) into `make_sink`'s output counts.
 struct Decoded {
     Totals totals;
     std::uint64_t allocations = 0;
     std::size_t heap_peak = 0;  // above the heap in use before
 };
 
-Decoded decode_seed_bus(std::string dump, const MakeSink& make_sink) {
+Decoded decode_seed_bus(std::string input, const MakeSink& make_sink,
+                        InputFormat format = InputFormat::raw) {
     Bus bus;
     EXPECT_TRUE(test::assign_seed_devices(bus));
     PipelineOptions options;
     options.bus = &bus;
-    auto source = source_from_memory(std::move(dump), "dump", InputFormat::raw);
+    auto source = source_from_memory(std::move(input), "input", format);
     EXPECT_TRUE(source);
     std::unique_ptr<FILE, int (*)(FILE*)> null(std::fopen("/dev/null", "w"), &std::fclose);
     EXPECT_NE(null, nullptr);
@@ -146,7 +173,7 @@ Decoded decode_seed_bus(std::string dump, const MakeSink& make_sink) {
 
 // Allocations made by decoding `cycles` polls into the output `make_sink` gives.
 std::uint64_t allocations_decoding(int cycles, const MakeSink& make_sink) {
-    const Decoded decoded = decode_seed_bus(seed_device_polls(cycles), make_sink);
+    const Decoded decoded = decode_seed_bus(raw_dump(seed_device_polls(cycles)), make_sink);
     EXPECT_EQ(decoded.totals.records, 10U * static_cast<std::uint64_t>(cycles));
     EXPECT_EQ(decoded.totals.responses, 5U * static_cast<std::uint64_t>(cycles));
     return decoded.allocations;
@@ -177,6 +204,26 @@ TEST(Allocations, NonePerFrameDecodingToTheValuesCsv) {
     expect_no_allocation_per_frame([](FILE* f) { return make_values_csv_sink(f); });
 }
 
+// The same polls as timed captures, a frame a line and a byte a line: nothing per line or
+// per silence either (the framer lists the silences that end frames, and must drop them
+// with the bytes it has decided).
+TEST(Allocations, NonePerFrameDecodingTimedCaptures) {
+    for (const bool per_byte : {false, true}) {
+        std::uint64_t allocations[2] = {0, 0};
+        for (const int cycles : {400, 800}) {
+            const Decoded decoded = decode_seed_bus(
+                timed_capture(seed_device_polls(cycles), per_byte),
+                [](FILE* f) { return make_csv_sink(f); }, InputFormat::capture);
+            EXPECT_EQ(decoded.totals.records, 10U * static_cast<std::uint64_t>(cycles));
+            EXPECT_EQ(decoded.totals.responses, 5U * static_cast<std::uint64_t>(cycles));
+            allocations[cycles == 800] = decoded.allocations;
+        }
+        EXPECT_EQ(allocations[1], allocations[0])
+            << (per_byte ? "a byte a line" : "a frame a line") << ": 400 cycles " << allocations[0]
+            << ", 800 cycles " << allocations[1];
+    }
+}
+
 // Peak RSS below 32 MiB whatever the capture (issue #6): the pairing stage keeps a few
 // records' buffers, not one per slot a wait once grew. A read nobody answers, 200 frames
 // held behind it, then 400 writes of 1,968 coils to the relay controller that go
@@ -184,14 +231,15 @@ TEST(Allocations, NonePerFrameDecodingToTheValuesCsv) {
 // Their records went round all 256 slots the wait had grown, each keeping its values:
 // 130 MB. A few records' worth now.
 TEST(Memory, UnansweredLargeWritesAfterAWaitKeepAFewRecords) {
-    std::string dump;
-    append_frame(dump, {9, 0x03, 0x00, 0x00, 0x00, 0x01});
-    for (int i = 0; i < 200; ++i) append_frame(dump, {2, 0x83, 0x02});
+    std::vector<Bytes> frames;
+    frames.push_back(test::with_crc({9, 0x03, 0x00, 0x00, 0x00, 0x01}));
+    for (int i = 0; i < 200; ++i) frames.push_back(test::with_crc({2, 0x83, 0x02}));
     const Bytes header = {4, 0x0F, 0x00, 0x00, 0x07, 0xB0, 246};  // 1,968 coils from 0
     Bytes write(header.size() + 246, 0x55);
     std::copy(header.begin(), header.end(), write.begin());
-    for (int i = 0; i < 400; ++i) append_frame(dump, write);
-    const Decoded decoded = decode_seed_bus(dump, [](FILE* f) { return make_csv_sink(f); });
+    for (int i = 0; i < 400; ++i) frames.push_back(test::with_crc(write));
+    const Decoded decoded =
+        decode_seed_bus(raw_dump(frames), [](FILE* f) { return make_csv_sink(f); });
     EXPECT_EQ(decoded.totals.records, 601U);
     EXPECT_LT(decoded.heap_peak, std::size_t{8} << 20U) << decoded.heap_peak << " bytes";
 }
