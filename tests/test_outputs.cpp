@@ -95,6 +95,21 @@ TEST(Jsonl, StringsAreEscaped) {
     EXPECT_EQ(json_string("µW/cm²"), "\"µW/cm²\"");
 }
 
+// The sinks append strings through a shortcut for printable ASCII, which needs no
+// escaping: each character that does must still take the long way, alone in a string of
+// plain ones (a channel tag, a profile's names and units may hold any of them).
+TEST(Jsonl, AppendedStringsAreEscapedLikeAnyOther) {
+    for (const std::string_view text :
+         {"plain text", "a\"b", "a\\b", "a\nb", "a\x1F-", "a\x01", "\x7F", "µW/cm²", "bad \xFF"}) {
+        std::string out = "{";
+        append_json_string(out, text);
+        EXPECT_EQ(out, "{" + json_string(text)) << text;
+    }
+    std::string out;
+    append_json_string(out, "@port\\1");
+    EXPECT_EQ(out, R"("@port\\1")");
+}
+
 // The text's time column: time of day for absolute Unix times, seconds since the first
 // frame (-t r), seconds since the previous frame (-t d).
 TEST(Text, TimeColumnAbsoluteRelativeAndDelta) {
