@@ -1,7 +1,5 @@
 #include "traffic.hpp"
 
-#include <fmt/format.h>
-
 #include <algorithm>
 #include <vector>
 
@@ -341,7 +339,7 @@ TrafficStats generate_traffic(const TrafficOptions& options,
 }
 
 std::string capture_header(const TrafficOptions& options) {
-    return fmt::format("# rtuscope capture v1\n# serial {} 8N1\n", options.baud);
+    return rtuscope::capture_header(LineSettings{.baud = options.baud});
 }
 
 TrafficInMemory traffic_in_memory(const TrafficOptions& options,

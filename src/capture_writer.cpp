@@ -69,6 +69,12 @@ class RecordingSource final : public ChunkSource {
 
 }  // namespace
 
+std::string capture_header(const std::optional<LineSettings>& line) {
+    std::string header = "# rtuscope capture v1\n";
+    if (line) header += fmt::format("# serial {} {}\n", line->baud, line->format());
+    return header;
+}
+
 Result<std::unique_ptr<ChunkSource>> record_capture(std::unique_ptr<ChunkSource> source,
                                                     const std::string& path) {
     const int fd = open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
@@ -76,8 +82,7 @@ Result<std::unique_ptr<ChunkSource>> record_capture(std::unique_ptr<ChunkSource>
         return Error{fmt::format("cannot create the capture: {}", std::strerror(errno)), path};
     }
     const SourceInfo& info = source->info();
-    std::string header = "# rtuscope capture v1\n";
-    if (info.line) header += fmt::format("# serial {} {}\n", info.line->baud, info.line->format());
+    std::string header = capture_header(info.line);
     header += fmt::format("# recorded live from {}\n", info.name);
     if (Status s = write_all(fd, header, path); !s) {
         close(fd);

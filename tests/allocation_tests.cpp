@@ -121,7 +121,7 @@ std::string raw_dump(const std::vector<Bytes>& frames) {
 std::string timed_capture(const std::vector<Bytes>& frames, bool per_byte) {
     LineSettings line;
     line.baud = 115200;
-    std::string capture = "# rtuscope capture v1\n# serial 115200 8N1\n";
+    std::string capture = capture_header(line);
     Chunk chunk;
     chunk.time = 1'000'000'000;
     for (const Bytes& frame : frames) {

@@ -3,9 +3,11 @@
 #pragma once
 
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "rtuscope/chunk.hpp"
+#include "rtuscope/line_settings.hpp"
 #include "rtuscope/result.hpp"
 
 namespace rtuscope {
@@ -16,6 +18,10 @@ namespace rtuscope {
 // the last seconds). A write error ends the run with that error.
 Result<std::unique_ptr<ChunkSource>> record_capture(std::unique_ptr<ChunkSource> source,
                                                     const std::string& path);
+
+// The header of the capture format: "# rtuscope capture v1\n", then "# serial 9600 8N1\n"
+// when the line is known.
+std::string capture_header(const std::optional<LineSettings>& line);
 
 // One data line of the capture format: "1763798400.022360123 @A 01 03 ...\n".
 std::string capture_line(const Chunk& chunk);
