@@ -2,6 +2,7 @@
 
 #include <unistd.h>
 
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -142,8 +143,13 @@ std::optional<Decoding> prepare_decoding(const OutputArgs& args, int& exit_code)
     }
 
     // A file or a pipe takes the output in large blocks (a terminal keeps its lines); live
-    // runs flush after every record anyway.
-    if (!isatty(STDOUT_FILENO)) std::setvbuf(stdout, nullptr, _IOFBF, std::size_t{1} << 20);
+    // runs flush after every record anyway. glibc takes the size only with a buffer to go
+    // with it (given none, it kept its 4 KiB: the values CSV went out in 4 KiB writes). The
+    // buffer is static, with nothing to destroy: stdio flushes it after static destructors.
+    if (!isatty(STDOUT_FILENO)) {
+        static std::array<char, std::size_t{1} << 20> stdout_buffer;
+        std::setvbuf(stdout, stdout_buffer.data(), _IOFBF, stdout_buffer.size());
+    }
 
     if (args.stats) {
         d.sink = make_stats_sink(stdout, args.csv     ? StatsFormat::csv
