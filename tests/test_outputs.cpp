@@ -1,12 +1,16 @@
-// JSON Lines output and record filters, on the seed manual's frames and hand-made records.
+// The outputs (JSON Lines, text and CSV: their fields, and how they reach the file) and
+// record filters, on the seed manual's frames and hand-made records.
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cstdio>
 #include <cstdlib>
+#include <functional>
+#include <memory>
 #include <random>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "rtuscope/bus.hpp"
@@ -14,6 +18,7 @@
 #include "rtuscope/pipeline.hpp"
 #include "rtuscope/sinks.hpp"
 #include "rtuscope/sources.hpp"
+#include "support.hpp"
 
 namespace rtuscope {
 namespace {
@@ -356,6 +361,110 @@ TEST(Csv, QuotesExactlyTheFieldsThatHoldACommaAQuoteOrALineBreak) {
     const auto [mismatch, ignored] = std::mismatch(csv.begin(), csv.end(), expected.begin());
     EXPECT_EQ(csv.substr(static_cast<std::size_t>(mismatch - csv.begin()), 60),
               expected.substr(static_cast<std::size_t>(mismatch - csv.begin()), 60));
+}
+
+// A FILE* that keeps what reaches it through its write calls, and counts them.
+class CountingFile {
+  public:
+    // `buffer` 0: unbuffered, every fwrite reaches on_write at once; else stdio holds up
+    // to that many bytes, as it does for rtuscope's stdout into a file or a pipe.
+    explicit CountingFile(std::size_t buffer) {
+        const cookie_io_functions_t io{nullptr, &CountingFile::on_write, nullptr, nullptr};
+        file_ = fopencookie(this, "w", io);
+        EXPECT_NE(file_, nullptr);
+        if (buffer == 0) {
+            std::setvbuf(file_, nullptr, _IONBF, 0);
+        } else {
+            std::setvbuf(file_, nullptr, _IOFBF, buffer);
+        }
+    }
+    ~CountingFile() { std::fclose(file_); }
+    CountingFile(const CountingFile&) = delete;
+    CountingFile& operator=(const CountingFile&) = delete;
+
+    [[nodiscard]] std::FILE* file() const { return file_; }
+    [[nodiscard]] std::size_t writes() const { return writes_; }
+    [[nodiscard]] const std::string& text() const { return text_; }
+
+  private:
+    static ssize_t on_write(void* cookie, const char* data, std::size_t size) {
+        auto* self = static_cast<CountingFile*>(cookie);
+        ++self->writes_;
+        self->text_.append(data, size);
+        return static_cast<ssize_t>(size);
+    }
+
+    std::FILE* file_ = nullptr;
+    std::size_t writes_ = 0;
+    std::string text_;
+};
+
+using SinkMaker = std::function<std::unique_ptr<RecordSink>(std::FILE*)>;
+
+const std::pair<const char*, SinkMaker> kRecordSinks[] = {
+    {"text", [](std::FILE* f) { return make_text_sink(f, TextOptions{}); }},
+    {"CSV", [](std::FILE* f) { return make_csv_sink(f); }},
+    {"JSONL", [](std::FILE* f) { return make_jsonl_sink(f); }},
+};
+
+// `polls` reads of ten registers from slave 1, each answered, as a raw dump.
+std::string answered_reads(int polls) {
+    std::string dump;
+    for (int i = 0; i < polls; ++i) {
+        test::Bytes answer = {0x01, 0x03, 20};
+        for (int r = 0; r < 20; ++r) answer.push_back(static_cast<std::uint8_t>(i + r));
+        for (const test::Bytes& frame :
+             {test::with_crc({0x01, 0x03, 0x00, 0x00, 0x00, 0x0A}), test::with_crc(answer)}) {
+            dump.append(frame.begin(), frame.end());
+        }
+    }
+    return dump;
+}
+
+// A decode hands its output to the file in blocks of 64 KiB (issue #6: one write per record
+// would cost a system call each when stdout is unbuffered or a terminal), not a record at a
+// time, whatever buffering the file has.
+TEST(Outputs, RecordsReachTheFileInLargeBlocks) {
+    constexpr int kPolls = 2000;
+    constexpr std::size_t kBlock = 64 << 10;
+    for (const auto& [name, make_sink] : kRecordSinks) {
+        CountingFile out(0);
+        auto source = source_from_memory(answered_reads(kPolls), "mem", InputFormat::raw);
+        ASSERT_TRUE(source);
+        auto sink = make_sink(out.file());
+        Totals totals;
+        ASSERT_TRUE(run_pipeline(**source, {}, *sink, &totals));
+        ASSERT_EQ(totals.records, 2U * kPolls) << name;
+        ASSERT_GT(out.text().size(), 4 * kBlock) << name;
+        // Full blocks, the last part of one, and the end's summary lines.
+        EXPECT_LE(out.writes(), out.text().size() / kBlock + 8)
+            << name << ": " << out.writes() << " writes of " << out.text().size() << " bytes";
+    }
+}
+
+// Live, each record reaches the file when it is flushed: `rtuscope sniff > log` then
+// `tail -f log` (stdout then has a 1 MiB stdio buffer) shows each frame as it comes, not
+// a megabyte later.
+TEST(Outputs, AFlushHandsTheFileEverythingSoFar) {
+    test::CollectingSink decoded;
+    auto source = source_from_memory(answered_reads(3), "mem", InputFormat::raw);
+    ASSERT_TRUE(source);
+    ASSERT_TRUE(run_pipeline(**source, {}, decoded));
+    ASSERT_EQ(decoded.records.size(), 6U);
+    for (const auto& [name, make_sink] : kRecordSinks) {
+        CountingFile out(std::size_t{1} << 20);
+        auto sink = make_sink(out.file());
+        sink->begin(SessionInfo{});
+        std::size_t before = out.text().size();
+        for (const Record& r : decoded.records) {
+            sink->record(r);
+            sink->flush();
+            EXPECT_GT(out.text().size(), before) << name << ", record " << r.number;
+            EXPECT_EQ(out.text().back(), '\n') << name << ", record " << r.number;
+            before = out.text().size();
+        }
+        sink->end(Totals{}, {});
+    }
 }
 
 TEST(Filter, ParsesListsKindsAndTimes) {

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# sniff/demo stop cleanly on SIGTERM (output flushed, summary on stderr, exit 0), and a
-# capture written with -w stays valid even when the process is killed outright.
+# sniff/demo write each record at once, even into a file; they stop cleanly on SIGTERM
+# (output flushed, summary on stderr, exit 0); and a capture written with -w stays valid
+# even when the process is killed outright.
 # Usage: stop_signals.sh RTUSCOPE
 set -euo pipefail
 rtuscope=$1
@@ -12,6 +13,8 @@ fail() { echo "FAIL: $*" >&2; exit 1; }
 "$rtuscope" demo --no-color -w "$dir/term.rtucap" >"$dir/term.out" 2>"$dir/term.err" &
 pid=$!
 sleep 2
+# Into a file stdout has a 1 MiB buffer, yet a live run hands over each record at once.
+grep -q 'uv_intensity' "$dir/term.out" || fail "nothing in the output file while the demo runs"
 kill -TERM "$pid"
 rc=0; wait "$pid" || rc=$?
 [ "$rc" -eq 0 ] || fail "exit status $rc after SIGTERM: $(cat "$dir/term.err")"
