@@ -20,6 +20,7 @@
 #include "rtuscope/pipeline.hpp"
 #include "rtuscope/sinks.hpp"
 #include "rtuscope/sources.hpp"
+#include "rtuscope/stats.hpp"
 #include "support.hpp"
 
 namespace {
@@ -302,6 +303,102 @@ TEST(Memory, UnansweredLargeWritesAfterAWaitKeepAFewRecords) {
     const Decoded decoded = decode_seed_bus(raw_dump(frames), csv_sink);
     EXPECT_EQ(decoded.totals.records, 601U);
     EXPECT_LT(decoded.heap_peak, std::size_t{8} << 20U) << decoded.heap_peak << " bytes";
+}
+
+// A table of durations (a row's turnarounds, a poll's cycles) keeps to ~22 KiB however
+// many values come (stats.hpp): bins, and a batch of values waiting to be counted. While a
+// batch is counted, the old and the merged bins live at once: twice that, briefly.
+TEST(Memory, ADurationTableKeepsToItsBoundHoweverManyValues) {
+    for (const int values : {1'000, 300'000}) {
+        const std::size_t heap_before = g_heap_bytes;
+        g_heap_peak = g_heap_bytes;
+        auto counts = std::make_unique<DurationCounts>();
+        for (int i = 0; i < values; ++i) counts->add(Nanos{i} * 1000 + i % 7);
+        counts->finish();
+        EXPECT_EQ(counts->size(), static_cast<std::uint64_t>(values));
+        const std::size_t kept = g_heap_bytes - heap_before;
+        EXPECT_LE(kept, std::size_t{22} << 10U) << values << " values";
+        EXPECT_LE(g_heap_peak - heap_before, std::size_t{64} << 10U) << values << " values";
+    }
+}
+
+// Sets of durations given to a BusStats: `large` sets of 1,100 distinct values and `small`
+// sets of 20 (rows' turnarounds, from answers; or polls' cycles, from requests).
+class DurationSets {
+  public:
+    explicit DurationSets(bool polls) : polls_(polls) {}
+    void add_large(BusStats& stats) const {
+        for (unsigned set = 0; set < kLarge; ++set) add(stats, set, 1'100);
+    }
+    void add_small(BusStats& stats) const {
+        for (unsigned set = kLarge; set < kLarge + small(); ++set) add(stats, set, 20);
+    }
+    // Rows: 247 slaves x functions 9-40 besides the large ones; polls: the whole table.
+    [[nodiscard]] unsigned small() const { return polls_ ? BusStats::kMaxPolls - kLarge : 7'904; }
+    static constexpr unsigned kLarge = 512;
+
+  private:
+    void add(BusStats& stats, unsigned set, int values) const {
+        Record r;
+        if (polls_) {  // reads of register `set` from slave 1; cycles 2 ms, 2.007 ms ...
+            r.kind = Kind::request;
+            r.frame.bytes = test::with_crc({1, 0x03, static_cast<std::uint8_t>(set >> 8U),
+                                            static_cast<std::uint8_t>(set), 0x00, 0x01});
+        } else {  // answers from their own slave and function; 2 ms, 2.007 ms ...
+            const unsigned slave = set < kLarge ? 1 + set / 8 : 1 + (set - kLarge) / 32;
+            const unsigned function = set < kLarge ? 1 + set % 8 : 9 + (set - kLarge) % 32;
+            r.kind = Kind::response;
+            r.frame.bytes = test::with_crc(
+                {static_cast<std::uint8_t>(slave), static_cast<std::uint8_t>(function), 0x00});
+        }
+        r.frame.crc = check_crc(r.frame.bytes);
+        Nanos time = 0;
+        for (int i = 0; i <= values; ++i) {
+            const Nanos duration = Nanos{2'000 + 7 * i} * 1000;
+            time += duration;
+            r.frame.start = time;
+            r.frame.end = time + 1000;
+            r.latency = duration;
+            if (polls_ || i < values) stats.add(r);  // n + 1 requests make n cycles
+        }
+    }
+    bool polls_;
+};
+
+// Sets that held 1,024 bins each while they were few give the room back when more sets
+// come and the share drops (stats.hpp: BusStats::kBinBudget). 512 sets of 1,100 values
+// (1,024 bins each: 9.6 MB alone) and many of 20, which bring the share down: the heap
+// kept at the end is no larger than if the large sets had come last, when the share was
+// already down. For rows' turnarounds and for polls' cycles.
+TEST(Memory, StatsGiveBackTheRoomOfALargerShare) {
+    for (const bool polls : {false, true}) {
+        const DurationSets sets(polls);
+        std::size_t kept[2] = {0, 0};
+        for (const bool large_first : {true, false}) {
+            const std::size_t heap_before = g_heap_bytes;
+            auto stats = std::make_unique<BusStats>();
+            if (large_first) {
+                sets.add_large(*stats);
+                sets.add_small(*stats);
+            } else {
+                sets.add_small(*stats);
+                sets.add_large(*stats);
+            }
+            stats->finish();
+            // 2^19 bins among the sets, in a power of 2: 32 each for 8,416 rows, 128 each
+            // for 4,096 polls.
+            EXPECT_EQ(stats->bins_each(), polls ? 128U : 32U);
+            EXPECT_EQ(polls ? stats->polls().size() : stats->functions().size(),
+                      DurationSets::kLarge + sets.small());
+            EXPECT_EQ(stats->forgotten_polls(), 0U);
+            kept[large_first ? 0 : 1] = g_heap_bytes - heap_before;
+        }
+        // Coming last, the large sets keep some room to spare (a batch's worth of bins
+        // each, ~6% more for the polls here); first, they must keep no more than that.
+        EXPECT_LE(kept[0], kept[1] + kept[1] / 20)
+            << (polls ? "polls" : "rows") << ": large sets first " << kept[0] << " bytes, last "
+            << kept[1] << " bytes";
+    }
 }
 
 }  // namespace
