@@ -143,11 +143,13 @@ std::optional<Decoding> prepare_decoding(const OutputArgs& args, int& exit_code)
     }
 
     // A file or a pipe takes the output in large blocks (a terminal keeps its lines); live
-    // runs flush after every record anyway. glibc takes the size only with a buffer to go
-    // with it (given none, it kept its 4 KiB: the values CSV went out in 4 KiB writes). The
-    // buffer is static, with nothing to destroy: stdio flushes it after static destructors.
+    // runs flush after every record anyway. 64 KiB, as the sinks' own blocks: a larger
+    // buffer saved no more time (1 MiB: the same, and 0.9 MiB more RSS). glibc takes the
+    // size only with a buffer to go with it (given none, it kept its 4 KiB: the values CSV
+    // went out in 4 KiB writes). The buffer is static, with nothing to destroy: stdio
+    // flushes it after static destructors.
     if (!isatty(STDOUT_FILENO)) {
-        static std::array<char, std::size_t{1} << 20> stdout_buffer;
+        static std::array<char, std::size_t{64} << 10> stdout_buffer;
         std::setvbuf(stdout, stdout_buffer.data(), _IOFBF, stdout_buffer.size());
     }
 

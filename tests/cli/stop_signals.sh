@@ -13,7 +13,7 @@ fail() { echo "FAIL: $*" >&2; exit 1; }
 "$rtuscope" demo --no-color -w "$dir/term.rtucap" >"$dir/term.out" 2>"$dir/term.err" &
 pid=$!
 sleep 2
-# Into a file stdout has a 1 MiB buffer, yet a live run hands over each record at once.
+# Into a file stdout has a 64 KiB buffer, yet a live run hands over each record at once.
 grep -q 'uv_intensity' "$dir/term.out" || fail "nothing in the output file while the demo runs"
 kill -TERM "$pid"
 rc=0; wait "$pid" || rc=$?
