@@ -183,11 +183,16 @@ std::unique_ptr<RecordSink> csv_sink(FILE* f) {
     return make_csv_sink(f);
 }
 
+// Every record of `cycles` seed polls came out: 10 a cycle, 5 of them answers.
+void expect_all_polls_decoded(const Decoded& decoded, int cycles) {
+    EXPECT_EQ(decoded.totals.records, 10U * static_cast<std::uint64_t>(cycles));
+    EXPECT_EQ(decoded.totals.responses, 5U * static_cast<std::uint64_t>(cycles));
+}
+
 // Allocations made by decoding `cycles` polls into the output `make_sink` gives.
 std::uint64_t allocations_decoding(int cycles, const MakeSink& make_sink) {
     const Decoded decoded = decode_seed_bus(raw_dump(seed_device_polls(cycles)), make_sink);
-    EXPECT_EQ(decoded.totals.records, 10U * static_cast<std::uint64_t>(cycles));
-    EXPECT_EQ(decoded.totals.responses, 5U * static_cast<std::uint64_t>(cycles));
+    expect_all_polls_decoded(decoded, cycles);
     return decoded.allocations;
 }
 
@@ -225,8 +230,7 @@ TEST(Allocations, NonePerFrameDecodingTimedCaptures) {
         for (const int cycles : {400, 800}) {
             const Decoded decoded = decode_seed_bus(
                 timed_capture(seed_device_polls(cycles), per_byte), csv_sink, InputFormat::capture);
-            EXPECT_EQ(decoded.totals.records, 10U * static_cast<std::uint64_t>(cycles));
-            EXPECT_EQ(decoded.totals.responses, 5U * static_cast<std::uint64_t>(cycles));
+            expect_all_polls_decoded(decoded, cycles);
             allocations[cycles == 800] = decoded.allocations;
         }
         EXPECT_EQ(allocations[1], allocations[0])
@@ -256,8 +260,7 @@ TEST(Allocations, NonePerFrameReadingFiles) {
             ASSERT_TRUE(source) << source.error().to_string();
             ASSERT_EQ((*source)->info().format, capture ? "capture" : "raw");
             const Decoded decoded = decode_seed_bus(**source, csv_sink);
-            EXPECT_EQ(decoded.totals.records, 10U * static_cast<std::uint64_t>(cycles));
-            EXPECT_EQ(decoded.totals.responses, 5U * static_cast<std::uint64_t>(cycles));
+            expect_all_polls_decoded(decoded, cycles);
             allocations[cycles == 800] = decoded.allocations;
         }
         EXPECT_EQ(allocations[1], allocations[0])
@@ -279,7 +282,7 @@ TEST(Allocations, NonePerSkippedLineOfAHexLog) {
             log += "\nno frame on this line\n";
         }
         const Decoded decoded = decode_seed_bus(log, csv_sink, InputFormat::hex);
-        EXPECT_EQ(decoded.totals.records, 10U * static_cast<std::uint64_t>(cycles));
+        expect_all_polls_decoded(decoded, cycles);
         allocations[cycles == 800] = decoded.allocations;
     }
     EXPECT_EQ(allocations[1], allocations[0])
