@@ -8,9 +8,11 @@
 #include <gtest/gtest.h>
 
 #include <array>
+#include <cstdlib>
 #include <map>
 #include <ostream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "rtuscope/bus.hpp"
@@ -31,10 +33,15 @@ struct Generated {
     std::vector<SentFrame> sent;
 };
 
+// RTUSCOPE_SEED=N in the environment generates another seed's traffic: the tests must
+// pass on any (stop 37 ran seeds 1-48; before, seed 1 passed by luck, 2-4 did not).
 Generated generate(std::uint64_t frames, std::uint32_t baud, bool per_byte) {
     Generated g;
-    g.traffic = bench::traffic_in_memory({.frames = frames, .baud = baud, .per_byte = per_byte},
-                                         [&](const SentFrame& s) { g.sent.push_back(s); });
+    const char* seed_env = std::getenv("RTUSCOPE_SEED");
+    const std::uint64_t seed = seed_env != nullptr ? std::strtoull(seed_env, nullptr, 10) : 1;
+    g.traffic = bench::traffic_in_memory(
+        {.frames = frames, .seed = seed, .baud = baud, .per_byte = per_byte},
+        [&](const SentFrame& s) { g.sent.push_back(s); });
     return g;
 }
 
@@ -49,9 +56,32 @@ struct Poll {
     [[nodiscard]] bool broadcast() const { return request->bytes[0] == 0; }
     // Left waiting for its answer, or with a frame the tap saw damaged.
     [[nodiscard]] bool open() const { return damaged() || (answer == nullptr && !broadcast()); }
-    [[nodiscard]] bool same_function(const Poll& other) const {
-        return request->bytes[0] == other.request->bytes[0] &&
-               request->bytes[1] == other.request->bytes[1];
+    // The slave and function the master asked. A damaged request may have its flipped bit
+    // there, so an intact answer's (an exception's without the 0x80) is taken instead.
+    [[nodiscard]] std::pair<std::uint8_t, std::uint8_t> key() const {
+        const SentFrame* frame =
+            request->damaged && answer != nullptr && !answer->damaged ? answer : request;
+        return {frame->bytes[0], static_cast<std::uint8_t>(frame->bytes[1] & 0x7FU)};
+    }
+    // Whether it may have left `k`'s slave and function waiting: it meant them, or one of
+    // its frames reads as theirs, a damaged one from any of its bytes (the framer may
+    // resynchronise there).
+    [[nodiscard]] bool touches(std::pair<std::uint8_t, std::uint8_t> k) const {
+        auto reads_as = [&](const SentFrame* frame) {
+            if (frame == nullptr) return false;
+            const std::size_t starts = frame->damaged ? frame->bytes.size() - 1 : 1;
+            for (std::size_t i = 0; i < starts; ++i) {
+                if (frame->bytes[i] == k.first && (frame->bytes[i + 1] & 0x7FU) == k.second) {
+                    return true;
+                }
+            }
+            return false;
+        };
+        return key() == k || reads_as(request) || reads_as(answer);
+    }
+    // Answered with the request's own bytes (FC05, FC06): order alone tells which is which.
+    [[nodiscard]] bool answered_by_echo() const {
+        return answer != nullptr && answer->bytes == request->bytes;
     }
 };
 
@@ -104,20 +134,50 @@ TEST_P(BenchTraffic, DecodesToWhatWasSent) {
     }
     ASSERT_EQ(all.size(), g.traffic.stats.bytes);
     EXPECT_TRUE(all == g.traffic.raw) << "the records' bytes are not the input's";
-    EXPECT_EQ(sink.totals.unknown, 0U);
 
-    // The valid frames are exactly the frames that went out intact.
-    std::vector<const Record*> valid;
-    for (const Record& r : records) {
-        if (r.frame.cls == RecordClass::frame) valid.push_back(&r);
-    }
-    std::vector<const SentFrame*> intact;
+    // The valid frames are the frames that went out intact, each at its place in the
+    // stream, but for chance: at a byte with a flipped bit, of noise, or inside a frame, a
+    // reading can check by chance (1 in 65,536 for each the framer tries), and its length
+    // may reach over intact frames after it. That happens about once in a few runs of
+    // 100,000 frames; more is a fault.
+    std::map<std::size_t, const SentFrame*> intact_at;  // by the place of its first byte
+    std::size_t at = 0;
     for (const SentFrame& s : g.sent) {
         const bool frame = s.what == SentFrame::What::request || s.what == SentFrame::What::answer;
-        if (frame && !s.damaged) intact.push_back(&s);
+        if (frame && !s.damaged) intact_at[at] = &s;
+        at += s.bytes.size();
     }
-    ASSERT_EQ(valid.size(), intact.size());
     std::map<const SentFrame*, const Record*> record_of;
+    std::map<std::size_t, const Record*> by_chance;  // by the place of its last byte
+    at = 0;
+    for (const Record& r : records) {
+        if (r.frame.cls == RecordClass::frame) {
+            const auto sent = intact_at.find(at);
+            if (sent != intact_at.end() && sent->second->bytes.size() == r.frame.bytes.size()) {
+                record_of[sent->second] = &r;
+            } else {
+                by_chance[at + r.frame.bytes.size() - 1] = &r;
+            }
+        }
+        at += r.frame.bytes.size();
+    }
+    std::string unexpected;
+    for (const auto& [last, r] : by_chance) {
+        unexpected += fmt::format("\n  #{} {:02X}", r->number, fmt::join(r->frame.bytes, " "));
+    }
+    constexpr std::size_t kChanceFrames = 3;
+    ASSERT_LE(by_chance.size(), kChanceFrames) << "valid frames not sent:" << unexpected;
+    // An intact frame not found must lie in one found by chance, whose length reached over
+    // it (as far as the 256 bytes a frame can have).
+    for (const auto& [first, sent] : intact_at) {
+        if (record_of.contains(sent)) continue;
+        const auto chance = by_chance.lower_bound(first);
+        const bool inside = chance != by_chance.end() &&
+                            chance->first + 1 - chance->second->frame.bytes.size() <= first;
+        ASSERT_TRUE(inside) << fmt::format("not found: {:02X}", fmt::join(sent->bytes, " "))
+                            << "; valid frames not sent:" << unexpected;
+    }
+
     int failures = 0;
     auto fail = [&](const Record& r, const std::string& what) {
         if (++failures <= 10) {
@@ -125,28 +185,38 @@ TEST_P(BenchTraffic, DecodesToWhatWasSent) {
                                          what);
         }
     };
-    for (std::size_t i = 0; i < intact.size(); ++i) {
-        const Record& r = *valid[i];
-        record_of[intact[i]] = &r;
-        if (r.frame.bytes != intact[i]->bytes) {
-            fail(r, fmt::format("sent as {:02X}", fmt::join(intact[i]->bytes, " ")));
-        }
-        const std::uint8_t slave = r.frame.slave();
+    for (const auto& [sent, r] : record_of) {
+        const std::uint8_t slave = r->frame.slave();
         const Profile* profile = slave >= 1 && slave <= 4 ? bus.profile_for(slave) : nullptr;
-        if (r.profile != profile) fail(r, "decoded with the wrong profile");
+        if (r->profile != profile) fail(*r, "decoded with the wrong profile");
+        if (r->kind == Kind::unknown) fail(*r, "neither request nor answer");
     }
     ASSERT_EQ(failures, 0);
 
     // What each frame is and which request each answer answers, poll by poll. Order cannot
     // always tell these after a poll to the same slave and function that was left open (no
-    // answer, or a frame damaged): those polls are left out, as are damaged ones (README,
-    // "How frames are found").
+    // answer, or a frame damaged): its next request may pass for the answer. Through a run
+    // of such polls answered by echoes the reading then stays one frame off. Those polls
+    // are left out, as are damaged ones (README, "How frames are found").
     const std::vector<Poll> polls = polls_of(g.sent);
     std::size_t checked = 0;
+    auto found = [&](const SentFrame* frame) {
+        return frame == nullptr || record_of.contains(frame);
+    };
+    bool previous_off = false;  // the poll before may have been read a frame off
     for (std::size_t k = 0; k < polls.size(); ++k) {
         const Poll& poll = polls[k];
-        if (poll.damaged()) continue;
-        if (k > 0 && polls[k - 1].open() && polls[k - 1].same_function(poll)) continue;
+        const auto key = poll.key();
+        // The two polls before: a damaged frame can swallow the next request into noise.
+        bool off = false;
+        for (std::size_t back = 1; back <= 2 && back <= k; ++back) {
+            const Poll& before = polls[k - back];
+            off = off || (before.open() && before.touches(key));
+        }
+        off = off || (previous_off && polls[k - 1].answered_by_echo() && polls[k - 1].key() == key);
+        previous_off = off;
+        if (off || poll.damaged()) continue;
+        if (!found(poll.request) || !found(poll.answer)) continue;  // by chance, above
         ++checked;
         const Record& request = *record_of.at(poll.request);
         const Kind request_kind = poll.broadcast() ? Kind::broadcast : Kind::request;
@@ -156,7 +226,7 @@ TEST_P(BenchTraffic, DecodesToWhatWasSent) {
         }
         if (poll.answer == nullptr) {
             // Unless the next poll, to the same slave and function, passes for its answer.
-            const bool next_same = k + 1 < polls.size() && polls[k + 1].same_function(poll);
+            const bool next_same = k + 1 < polls.size() && polls[k + 1].key() == key;
             if (!poll.broadcast() && !next_same && !test::has_note(request, note_id::no_answer)) {
                 fail(request, "unanswered, but not said to be");
             }
