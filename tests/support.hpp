@@ -1,7 +1,11 @@
-// Helpers shared by the unit tests: frames with their CRC, chunks with timing, and a
-// framer + pairing harness that collects what comes out.
+// Helpers shared by the unit tests: temporary files, frames with their CRC, chunks with
+// timing, and a framer + pairing harness that collects what comes out.
 #pragma once
 
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
 #include <initializer_list>
 #include <numeric>
 #include <string>
@@ -17,6 +21,39 @@
 namespace rtuscope::test {
 
 using Bytes = std::vector<std::uint8_t>;
+
+// A fresh temporary directory, removed with everything in it (even what a test made
+// unreadable).
+class TempDir {
+  public:
+    TempDir() {
+        path_ = std::filesystem::temp_directory_path() /
+                ("rtuscope_test_" + std::to_string(::getpid()) + "_" + std::to_string(counter_++));
+        std::filesystem::remove_all(path_);
+        std::filesystem::create_directories(path_);
+    }
+    ~TempDir() {
+        std::error_code ec;
+        std::filesystem::permissions(path_, std::filesystem::perms::owner_all, ec);
+        std::filesystem::remove_all(path_, ec);
+    }
+    TempDir(const TempDir&) = delete;
+    TempDir& operator=(const TempDir&) = delete;
+
+    // The path of `name` in the directory.
+    [[nodiscard]] std::string file(const std::string& name) const { return path_ / name; }
+    // Writes `content` to `name` in the directory; its path.
+    std::string write(const std::string& name, const std::string& content) const {
+        const std::string path = file(name);
+        std::ofstream(path, std::ios::binary) << content;
+        return path;
+    }
+    [[nodiscard]] std::string path() const { return path_.string(); }
+
+  private:
+    static inline int counter_ = 0;
+    std::filesystem::path path_;
+};
 
 // The four seed devices at slaves 1-4 (where the benchmark traffic has them); false when
 // one of their bundled profiles is missing.

@@ -2,11 +2,9 @@
 // type it accepts (files built here byte by byte), damaged files, and the round trip.
 #include <fmt/format.h>
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <array>
 #include <cstdio>
-#include <filesystem>
 #include <fstream>
 #include <sstream>
 
@@ -58,22 +56,7 @@ std::vector<Record> sample_records() {
     };
 }
 
-class TempDir {
-  public:
-    TempDir() {
-        path_ = std::filesystem::temp_directory_path() /
-                ("rtuscope-pcap-" + std::to_string(getpid()) + "-" + std::to_string(++counter_));
-        std::filesystem::create_directories(path_);
-    }
-    ~TempDir() { std::filesystem::remove_all(path_); }
-    TempDir(const TempDir&) = delete;
-    TempDir& operator=(const TempDir&) = delete;
-    [[nodiscard]] std::string file(const std::string& name) const { return path_ / name; }
-
-  private:
-    static inline int counter_ = 0;
-    std::filesystem::path path_;
-};
+using test::TempDir;
 
 std::string write_records(const std::string& path, const std::vector<Record>& records) {
     auto sink = make_pcap_sink(path);

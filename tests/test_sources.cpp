@@ -6,8 +6,6 @@
 #include <unistd.h>
 
 #include <cstdio>
-#include <filesystem>
-#include <fstream>
 #include <limits>
 #include <optional>
 #include <random>
@@ -15,6 +13,7 @@
 #include <vector>
 
 #include "rtuscope/sources.hpp"
+#include "support.hpp"
 
 namespace rtuscope {
 namespace {
@@ -68,35 +67,7 @@ std::string capture(const std::string& body) {
     return "# rtuscope capture v1\n" + body;
 }
 
-// A file in a fresh temporary directory, removed with it.
-class TempDir {
-  public:
-    TempDir() {
-        path_ = std::filesystem::temp_directory_path() /
-                ("rtuscope_test_sources_" + std::to_string(::getpid()) + "_" +
-                 std::to_string(counter_++));
-        std::filesystem::remove_all(path_);
-        std::filesystem::create_directories(path_);
-    }
-    ~TempDir() {
-        std::error_code ec;
-        std::filesystem::permissions(path_, std::filesystem::perms::owner_all, ec);
-        std::filesystem::remove_all(path_, ec);
-    }
-    TempDir(const TempDir&) = delete;
-    TempDir& operator=(const TempDir&) = delete;
-
-    std::string write(const std::string& name, const std::string& content) const {
-        const std::string file = (path_ / name).string();
-        std::ofstream(file, std::ios::binary) << content;
-        return file;
-    }
-    [[nodiscard]] std::string path() const { return path_.string(); }
-
-  private:
-    static inline int counter_ = 0;
-    std::filesystem::path path_;
-};
+using test::TempDir;
 
 // --- formats and names ------------------------------------------------------------------
 
