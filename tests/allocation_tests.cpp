@@ -189,36 +189,44 @@ void expect_all_polls_decoded(const Decoded& decoded, int cycles) {
     EXPECT_EQ(decoded.totals.responses, 5U * static_cast<std::uint64_t>(cycles));
 }
 
-// Allocations made by decoding `cycles` polls into the output `make_sink` gives.
-std::uint64_t allocations_decoding(int cycles, const MakeSink& make_sink) {
-    const Decoded decoded = decode_seed_bus(raw_dump(seed_device_polls(cycles)), make_sink);
-    expect_all_polls_decoded(decoded, cycles);
-    return decoded.allocations;
+// Decodes `cycles` polls of the seed devices, from an input the test makes.
+using DecodePolls = std::function<Decoded(int cycles)>;
+
+// Twice the polls, the same allocations: none per frame, per value or per line. (Each run
+// is over 64 KiB, the framer's window, so that its buffers reach their working size in
+// both: 400 polls are 80 KB.) `input` names the input in a failure.
+void expect_no_allocation_per_frame(const DecodePolls& decode, const std::string& input) {
+    std::uint64_t allocations[2] = {0, 0};
+    for (const int cycles : {400, 800}) {
+        const Decoded decoded = decode(cycles);
+        expect_all_polls_decoded(decoded, cycles);
+        allocations[cycles == 800] = decoded.allocations;
+    }
+    EXPECT_EQ(allocations[1], allocations[0])
+        << input << ": 400 cycles " << allocations[0] << ", 800 cycles " << allocations[1];
 }
 
-void expect_no_allocation_per_frame(const MakeSink& make_sink) {
-    // Twice the polls, the same allocations: none per frame or per value. (Each run is
-    // over 64 KiB, the framer's window, so that its buffers reach their working size in
-    // both: 400 polls are 80 KB.)
-    const std::uint64_t for_400 = allocations_decoding(400, make_sink);
-    const std::uint64_t for_800 = allocations_decoding(800, make_sink);
-    EXPECT_EQ(for_800, for_400) << "400 cycles: " << for_400 << ", 800 cycles: " << for_800;
+// The polls as a raw dump, decoded into the output `make_sink` gives.
+void expect_no_allocation_per_frame_into(const MakeSink& make_sink) {
+    expect_no_allocation_per_frame(
+        [&](int cycles) { return decode_seed_bus(raw_dump(seed_device_polls(cycles)), make_sink); },
+        "raw dump");
 }
 
 TEST(Allocations, NonePerFrameDecodingToText) {
-    expect_no_allocation_per_frame([](FILE* f) { return make_text_sink(f, TextOptions{}); });
+    expect_no_allocation_per_frame_into([](FILE* f) { return make_text_sink(f, TextOptions{}); });
 }
 
 TEST(Allocations, NonePerFrameDecodingToCsv) {
-    expect_no_allocation_per_frame([](FILE* f) { return make_csv_sink(f); });
+    expect_no_allocation_per_frame_into(csv_sink);
 }
 
 TEST(Allocations, NonePerFrameDecodingToJsonLines) {
-    expect_no_allocation_per_frame([](FILE* f) { return make_jsonl_sink(f); });
+    expect_no_allocation_per_frame_into([](FILE* f) { return make_jsonl_sink(f); });
 }
 
 TEST(Allocations, NonePerFrameDecodingToTheValuesCsv) {
-    expect_no_allocation_per_frame([](FILE* f) { return make_values_csv_sink(f); });
+    expect_no_allocation_per_frame_into([](FILE* f) { return make_values_csv_sink(f); });
 }
 
 // The same polls as timed captures, a frame a line and a byte a line: nothing per line or
@@ -226,16 +234,12 @@ TEST(Allocations, NonePerFrameDecodingToTheValuesCsv) {
 // with the bytes it has decided).
 TEST(Allocations, NonePerFrameDecodingTimedCaptures) {
     for (const bool per_byte : {false, true}) {
-        std::uint64_t allocations[2] = {0, 0};
-        for (const int cycles : {400, 800}) {
-            const Decoded decoded = decode_seed_bus(
-                timed_capture(seed_device_polls(cycles), per_byte), csv_sink, InputFormat::capture);
-            expect_all_polls_decoded(decoded, cycles);
-            allocations[cycles == 800] = decoded.allocations;
-        }
-        EXPECT_EQ(allocations[1], allocations[0])
-            << (per_byte ? "a byte a line" : "a frame a line") << ": 400 cycles " << allocations[0]
-            << ", 800 cycles " << allocations[1];
+        expect_no_allocation_per_frame(
+            [&](int cycles) {
+                return decode_seed_bus(timed_capture(seed_device_polls(cycles), per_byte), csv_sink,
+                                       InputFormat::capture);
+            },
+            per_byte ? "a byte a line" : "a frame a line");
     }
 }
 
@@ -243,50 +247,39 @@ TEST(Allocations, NonePerFrameDecodingTimedCaptures) {
 // longest line) however long the file. Before reading on it moves what it has not handed
 // out to its front; were it to grow instead, it would end as large as the file.
 TEST(Allocations, NonePerFrameReadingFiles) {
-    const std::string path = ::testing::TempDir() + "/rtuscope_allocation_input";
+    const test::TempDir dir;
     for (const bool capture : {false, true}) {
-        std::uint64_t allocations[2] = {0, 0};
-        for (const int cycles : {400, 800}) {
-            const std::vector<Bytes> frames = seed_device_polls(cycles);
-            const std::string content = capture ? timed_capture(frames, false) : raw_dump(frames);
-            {
-                std::unique_ptr<FILE, int (*)(FILE*)> file(std::fopen(path.c_str(), "wb"),
-                                                           &std::fclose);
-                ASSERT_NE(file, nullptr);
-                ASSERT_EQ(std::fwrite(content.data(), 1, content.size(), file.get()),
-                          content.size());
-            }
-            auto source = open_source(path, InputFormat::automatic);
-            ASSERT_TRUE(source) << source.error().to_string();
-            ASSERT_EQ((*source)->info().format, capture ? "capture" : "raw");
-            const Decoded decoded = decode_seed_bus(**source, csv_sink);
-            expect_all_polls_decoded(decoded, cycles);
-            allocations[cycles == 800] = decoded.allocations;
-        }
-        EXPECT_EQ(allocations[1], allocations[0])
-            << (capture ? "capture" : "raw dump") << ": 400 cycles " << allocations[0]
-            << ", 800 cycles " << allocations[1];
+        expect_no_allocation_per_frame(
+            [&](int cycles) {
+                const std::vector<Bytes> frames = seed_device_polls(cycles);
+                const std::string path =
+                    dir.write("input", capture ? timed_capture(frames, false) : raw_dump(frames));
+                auto source = open_source(path, InputFormat::automatic);
+                if (!source) {
+                    ADD_FAILURE() << source.error().to_string();
+                    return Decoded{};
+                }
+                EXPECT_EQ((*source)->info().format, capture ? "capture" : "raw");
+                return decode_seed_bus(**source, csv_sink);
+            },
+            capture ? "capture" : "raw dump");
     }
-    std::remove(path.c_str());
 }
 
 // A hex log keeps the lines that held no frame as ranges for its closing remark, and
 // only the first 1,000 ranges: a log with a comment after every frame (skipped lines in
 // ranges of one) costs no more memory for 8,000 of them than for 4,000.
 TEST(Allocations, NonePerSkippedLineOfAHexLog) {
-    std::uint64_t allocations[2] = {0, 0};
-    for (const int cycles : {400, 800}) {
-        std::string log;
-        for (const Bytes& frame : seed_device_polls(cycles)) {
-            log += hex_bytes(frame, true);
-            log += "\nno frame on this line\n";
-        }
-        const Decoded decoded = decode_seed_bus(log, csv_sink, InputFormat::hex);
-        expect_all_polls_decoded(decoded, cycles);
-        allocations[cycles == 800] = decoded.allocations;
-    }
-    EXPECT_EQ(allocations[1], allocations[0])
-        << "400 cycles " << allocations[0] << ", 800 cycles " << allocations[1];
+    expect_no_allocation_per_frame(
+        [](int cycles) {
+            std::string log;
+            for (const Bytes& frame : seed_device_polls(cycles)) {
+                log += hex_bytes(frame, true);
+                log += "\nno frame on this line\n";
+            }
+            return decode_seed_bus(log, csv_sink, InputFormat::hex);
+        },
+        "hex log");
 }
 
 // Peak RSS below 32 MiB whatever the capture (issue #6): the pairing stage keeps a few
