@@ -142,7 +142,7 @@ std::string timed_capture(const std::vector<Bytes>& frames, bool per_byte) {
     return capture;
 }
 
-using MakeSink = std::function<std::unique_ptr<RecordSink>(FILE*)>;
+using test::MakeSink;
 
 // What decoding the input of the seed devices' bus (1-4) into `make_sink`'s output counts.
 struct Decoded {

@@ -4,9 +4,12 @@
 
 #include <unistd.h>
 
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <initializer_list>
+#include <memory>
 #include <numeric>
 #include <string>
 #include <vector>
@@ -21,6 +24,10 @@
 namespace rtuscope::test {
 
 using Bytes = std::vector<std::uint8_t>;
+
+// Makes one of the outputs (text, CSV, JSONL ...) writing into a file: what the tests that
+// run every output alike take.
+using MakeSink = std::function<std::unique_ptr<RecordSink>(std::FILE*)>;
 
 // A fresh temporary directory, removed with everything in it (even what a test made
 // unreadable).

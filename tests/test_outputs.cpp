@@ -6,7 +6,6 @@
 #include <algorithm>
 #include <cstdio>
 #include <cstdlib>
-#include <functional>
 #include <memory>
 #include <random>
 #include <string>
@@ -399,9 +398,7 @@ class CountingFile {
     std::string text_;
 };
 
-using SinkMaker = std::function<std::unique_ptr<RecordSink>(std::FILE*)>;
-
-const std::pair<const char*, SinkMaker> kRecordSinks[] = {
+const std::pair<const char*, test::MakeSink> kRecordSinks[] = {
     {"text", [](std::FILE* f) { return make_text_sink(f, TextOptions{}); }},
     {"CSV", [](std::FILE* f) { return make_csv_sink(f); }},
     {"JSONL", [](std::FILE* f) { return make_jsonl_sink(f); }},
