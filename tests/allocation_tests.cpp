@@ -111,11 +111,7 @@ std::vector<Bytes> seed_device_polls(int cycles) {
     return frames;
 }
 
-std::string raw_dump(const std::vector<Bytes>& frames) {
-    std::string dump;
-    for (const Bytes& frame : frames) dump.append(frame.begin(), frame.end());
-    return dump;
-}
+using test::raw_dump;
 
 // The frames as a native capture at 115200 baud, 5 ms of silence after each: a frame a
 // line as an adapter hands them over, or a byte a line as a logic analyser exports them.

@@ -1,5 +1,5 @@
-// Helpers shared by the unit tests: temporary files, frames with their CRC, chunks with
-// timing, and a framer + pairing harness that collects what comes out.
+// Helpers shared by the unit tests: temporary files, frames with their CRC and as a raw
+// dump, chunks with timing, and a framer + pairing harness that collects what comes out.
 #pragma once
 
 #include <unistd.h>
@@ -84,6 +84,13 @@ inline Bytes concat(std::initializer_list<Bytes> parts) {
     Bytes all;
     for (const Bytes& p : parts) all.insert(all.end(), p.begin(), p.end());
     return all;
+}
+
+// The frames back to back, as a raw dump of the line holds them.
+inline std::string raw_dump(const std::vector<Bytes>& frames) {
+    std::string dump;
+    for (const Bytes& frame : frames) dump.append(frame.begin(), frame.end());
+    return dump;
 }
 
 inline constexpr Nanos kMs = 1'000'000;

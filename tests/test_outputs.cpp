@@ -406,16 +406,14 @@ const std::pair<const char*, test::MakeSink> kRecordSinks[] = {
 
 // `polls` reads of ten registers from slave 1, each answered, as a raw dump.
 std::string answered_reads(int polls) {
-    std::string dump;
+    std::vector<test::Bytes> frames;
     for (int i = 0; i < polls; ++i) {
         test::Bytes answer = {0x01, 0x03, 20};
         for (int r = 0; r < 20; ++r) answer.push_back(static_cast<std::uint8_t>(i + r));
-        for (const test::Bytes& frame :
-             {test::with_crc({0x01, 0x03, 0x00, 0x00, 0x00, 0x0A}), test::with_crc(answer)}) {
-            dump.append(frame.begin(), frame.end());
-        }
+        frames.push_back(test::with_crc({0x01, 0x03, 0x00, 0x00, 0x00, 0x0A}));
+        frames.push_back(test::with_crc(answer));
     }
-    return dump;
+    return test::raw_dump(frames);
 }
 
 // A decode hands its output to the file in blocks of 64 KiB (issue #6: one write per record
