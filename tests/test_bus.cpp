@@ -2,9 +2,6 @@
 // (length, echo answers), its broadcast address, silence instead of exceptions.
 #include <gtest/gtest.h>
 
-#include <cstdio>
-#include <fstream>
-
 #include "rtuscope/bus.hpp"
 #include "rtuscope/pipeline.hpp"
 #include "support.hpp"
@@ -239,12 +236,11 @@ TEST(Bus, UsersProfileReplacesTheBundledOneOfTheSameName) {
 }
 
 TEST(Bus, BusFileErrorsNameTheLine) {
-    const std::string path = ::testing::TempDir() + "/bus_test.toml";
-    {
-        std::ofstream out(path);
-        out << "line = \"9600 8E1\"\n\n[[device]]\naddress = 1\nprofile = \"uv-test\"\n\n"
-               "[[device]]\naddress = 2\nprofile = \"nosuch\"\n";
-    }
+    const test::TempDir dir;
+    const std::string path =
+        dir.write("bus.toml",
+                  "line = \"9600 8E1\"\n\n[[device]]\naddress = 1\nprofile = \"uv-test\"\n\n"
+                  "[[device]]\naddress = 2\nprofile = \"nosuch\"\n");
     Bus bus;
     bus.add_profile(uv_like());
     const Status status = load_bus_file(bus, path);
@@ -253,7 +249,6 @@ TEST(Bus, BusFileErrorsNameTheLine) {
     EXPECT_EQ(bus.profile_for(1)->name, "uv-test");
     ASSERT_TRUE(bus.line());
     EXPECT_EQ(bus.line()->format(), "8E1");
-    std::remove(path.c_str());
 }
 
 }  // namespace

@@ -67,7 +67,8 @@ TEST(Integration, EveryTransactionOfTheMasterIsDecodedAndPaired) {
     tty.stop = &stop;
     auto source = open_tty_source(tty);
     ASSERT_TRUE(source) << source.error().to_string();
-    const std::string capture = ::testing::TempDir() + "/integration.rtucap";
+    const test::TempDir dir;
+    const std::string capture = dir.file("integration.rtucap");
     auto recording = record_capture(std::move(*source), capture);
     ASSERT_TRUE(recording);
 
@@ -166,7 +167,6 @@ TEST(Integration, EveryTransactionOfTheMasterIsDecodedAndPaired) {
         EXPECT_EQ(again.records[i].request_number, live.records[i].request_number);
         EXPECT_EQ(again.records[i].frame.start, live.records[i].frame.start);
     }
-    std::remove(capture.c_str());
 }
 
 TEST(Integration, UnpluggedPortEndsTheRunWithWhatCameBefore) {

@@ -4,9 +4,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
-#include <cstdio>
 #include <cstdlib>
-#include <fstream>
 #include <sstream>
 
 #include "rtuscope/capture_writer.hpp"
@@ -289,7 +287,8 @@ TEST(LivePipeline, RecordsAreFlushedWhileTheLineRunsAndTheCaptureMatches) {
     o.duration = 500 * kMs;
     auto source = open_tty_source(o);
     ASSERT_TRUE(source);
-    const std::string path = ::testing::TempDir() + "/live_test.rtucap";
+    const test::TempDir dir;
+    const std::string path = dir.file("live.rtucap");
     auto recording = record_capture(std::move(*source), path);
     ASSERT_TRUE(recording);
     const Bytes read = with_crc({0x01, 0x03, 0x00, 0x00, 0x00, 0x01});
@@ -355,7 +354,6 @@ TEST(LivePipeline, RecordsAreFlushedWhileTheLineRunsAndTheCaptureMatches) {
         EXPECT_EQ(again.records[i].frame.start, sink.records[i].frame.start);
         EXPECT_EQ(again.records[i].kind, sink.records[i].kind);
     }
-    std::remove(path.c_str());
 }
 
 }  // namespace
