@@ -8,6 +8,7 @@
 #include <cerrno>
 #include <cstring>
 #include <map>
+#include <memory>
 #include <span>
 #include <string_view>
 
@@ -35,6 +36,11 @@ constexpr int kDltUser15 = 162;
 constexpr int kDltIpv4 = 228;
 constexpr int kDltIpv6 = 229;
 constexpr int kDltLinuxSll2 = 276;
+
+// stdio's buffer for the stream libpcap reads. libpcap reads each packet with two small
+// freads; stdio's own buffer, 4 KiB for a file, made that a read() every ~60 packets of
+// ours (docs/performance.md, stop 51). The size of the sinks' output blocks.
+constexpr std::size_t kReadBufferBytes = std::size_t{64} << 10;
 
 constexpr std::uint16_t kTagEndOfOpt = 0;
 constexpr std::uint16_t kTagDissectorName = 12;
@@ -257,7 +263,9 @@ int chain_close(void* cookie) {
 
 class PcapSource final : public ChunkSource {
   public:
-    PcapSource(pcap_t* pcap, std::string name) : pcap_(pcap), dlt_(pcap_datalink(pcap)) {
+    // `read_buffer` is the stream's stdio buffer: kept until pcap_close has closed it.
+    PcapSource(pcap_t* pcap, std::unique_ptr<char[]> read_buffer, std::string name)
+        : pcap_(pcap), read_buffer_(std::move(read_buffer)), dlt_(pcap_datalink(pcap)) {
         info_.name = std::move(name);
         info_.format = "pcap";
         info_.timed = true;
@@ -328,6 +336,7 @@ class PcapSource final : public ChunkSource {
 
   private:
     pcap_t* pcap_;
+    std::unique_ptr<char[]> read_buffer_;
     int dlt_;
     SourceInfo info_;
     // Reasons are counted apart up to a bound: each dissector name is one, and a crafted
@@ -381,6 +390,10 @@ Result<std::unique_ptr<ChunkSource>> pcap_source_from_stream(std::string head, s
             return Error{fmt::format("cannot read: {}", std::strerror(err)), name};
         }
     }
+    // Set before libpcap's first read. The file taken as it is was read from and then
+    // seeked back to its start, which left its buffer empty: glibc swaps it for this one.
+    auto read_buffer = std::make_unique_for_overwrite<char[]>(kReadBufferBytes);
+    std::setvbuf(stream, read_buffer.get(), _IOFBF, kReadBufferBytes);
     char errbuf[PCAP_ERRBUF_SIZE] = {};
     pcap_t* pcap =
         pcap_fopen_offline_with_tstamp_precision(stream, PCAP_TSTAMP_PRECISION_NANO, errbuf);
@@ -396,7 +409,8 @@ Result<std::unique_ptr<ChunkSource>> pcap_source_from_stream(std::string head, s
                                  dlt),
                      name};
     }
-    return std::unique_ptr<ChunkSource>(std::make_unique<PcapSource>(pcap, std::move(name)));
+    return std::unique_ptr<ChunkSource>(
+        std::make_unique<PcapSource>(pcap, std::move(read_buffer), std::move(name)));
 }
 
 Result<std::unique_ptr<ChunkSource>> pcap_source_from_memory(std::string content,

@@ -13,10 +13,12 @@
 #include <functional>
 #include <memory>
 #include <new>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
 #include "rtuscope/capture_writer.hpp"
+#include "rtuscope/pcap.hpp"
 #include "rtuscope/pipeline.hpp"
 #include "rtuscope/sinks.hpp"
 #include "rtuscope/sources.hpp"
@@ -179,6 +181,15 @@ std::unique_ptr<RecordSink> csv_sink(FILE* f) {
     return make_csv_sink(f);
 }
 
+// A sink writing the pcap of `--pcap` to `path`, in place of the output it is given.
+MakeSink pcap_sink_into(const std::string& path) {
+    return [path](FILE* /*output*/) -> std::unique_ptr<RecordSink> {
+        auto sink = make_pcap_sink(path);
+        if (!sink) throw std::runtime_error(sink.error().to_string());
+        return std::move(*sink);
+    };
+}
+
 // Every record of `cycles` seed polls came out: 10 a cycle, 5 of them answers.
 void expect_all_polls_decoded(const Decoded& decoded, int cycles) {
     EXPECT_EQ(decoded.totals.records, 10U * static_cast<std::uint64_t>(cycles));
@@ -241,24 +252,27 @@ TEST(Allocations, NonePerFrameDecodingTimedCaptures) {
 
 // Read from a file, not memory: the input buffer keeps its working size (64 KiB, or the
 // longest line) however long the file. Before reading on it moves what it has not handed
-// out to its front; were it to grow instead, it would end as large as the file.
+// out to its front; were it to grow instead, it would end as large as the file. A pcap is
+// libpcap's to read, each packet into the same chunk.
 TEST(Allocations, NonePerFrameReadingFiles) {
     const test::TempDir dir;
-    for (const bool capture : {false, true}) {
+    const std::string path = dir.file("input");
+    for (const std::string format : {"raw", "capture", "pcap"}) {
         expect_no_allocation_per_frame(
             [&](int cycles) {
                 const std::vector<Bytes> frames = seed_device_polls(cycles);
-                const std::string path =
-                    dir.write("input", capture ? timed_capture(frames, false) : raw_dump(frames));
+                if (format == "raw") dir.write("input", raw_dump(frames));
+                if (format == "capture") dir.write("input", timed_capture(frames, false));
+                if (format == "pcap") decode_seed_bus(raw_dump(frames), pcap_sink_into(path));
                 auto source = open_source(path, InputFormat::automatic);
                 if (!source) {
                     ADD_FAILURE() << source.error().to_string();
                     return Decoded{};
                 }
-                EXPECT_EQ((*source)->info().format, capture ? "capture" : "raw");
+                EXPECT_EQ((*source)->info().format, format);
                 return decode_seed_bus(**source, csv_sink);
             },
-            capture ? "capture" : "raw dump");
+            format);
     }
 }
 
