@@ -236,6 +236,12 @@ TEST(Allocations, NonePerFrameDecodingToTheValuesCsv) {
     expect_no_allocation_per_frame_into([](FILE* f) { return make_values_csv_sink(f); });
 }
 
+// Each packet record is built in the same room.
+TEST(Allocations, NonePerFrameWritingAPcap) {
+    const test::TempDir dir;
+    expect_no_allocation_per_frame_into(pcap_sink_into(dir.file("out.pcap")));
+}
+
 // The same polls as timed captures, a frame a line and a byte a line: nothing per line or
 // per silence either (the framer lists the silences that end frames, and must drop them
 // with the bytes it has decided).

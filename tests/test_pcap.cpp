@@ -398,7 +398,8 @@ TEST(PcapWriter, WritesHeaderAndExportedPduTags) {
 
 TEST(PcapWriter, DirectionFromKindThenReadingThenChannel) {
     auto ports = [](const Record& r) {
-        const Bytes p = pcap_packet_for(r);
+        Bytes p;
+        append_pcap_packet(p, r);
         return std::pair<int, int>((p[26] << 8) | p[27], (p[34] << 8) | p[35]);
     };
     using P = std::pair<int, int>;

@@ -73,6 +73,10 @@ class PcapSink : public RecordSink {
 
     std::FILE* file_ = nullptr;
     std::string path_;
+    std::unique_ptr<char[]> write_buffer_;  // the file's stdio buffer, kept past fclose
+    // One packet record, built anew for each frame in the same room.
+    std::vector<std::uint8_t> header_;
+    std::vector<std::uint8_t> packet_;
     std::uint64_t packets_ = 0;
     std::optional<Error> error_;
 };
@@ -80,8 +84,8 @@ class PcapSink : public RecordSink {
 // Creates (truncates) `path` and writes the pcap file header; the error names the file.
 Result<std::unique_ptr<PcapSink>> make_pcap_sink(const std::string& path);
 
-// The exported-PDU packet (tags and frame) written for one record; for tests and tools.
-std::vector<std::uint8_t> pcap_packet_for(const Record& record);
+// Appends the exported-PDU packet (tags and frame) written for one record to `out`.
+void append_pcap_packet(std::vector<std::uint8_t>& out, const Record& record);
 
 // A source over a pcap or pcapng file. Each packet holding a Modbus RTU frame becomes one
 // Chunk (chunk_is_frame): its time is the packet's timestamp, the frame's start
