@@ -13,6 +13,7 @@
 #include <string_view>
 
 #include "readers.hpp"
+#include "rtuscope/io_block.hpp"
 #include "rtuscope/pcap.hpp"
 #include "rtuscope/sources.hpp"
 
@@ -36,11 +37,6 @@ constexpr int kDltUser15 = 162;
 constexpr int kDltIpv4 = 228;
 constexpr int kDltIpv6 = 229;
 constexpr int kDltLinuxSll2 = 276;
-
-// stdio's buffer for the stream libpcap reads. libpcap reads each packet with two small
-// freads; stdio's own buffer, 4 KiB for a file, made that a read() every ~60 packets of
-// ours (docs/performance.md, stop 51). The size of the sinks' output blocks.
-constexpr std::size_t kReadBufferBytes = std::size_t{64} << 10;
 
 constexpr std::uint16_t kTagEndOfOpt = 0;
 constexpr std::uint16_t kTagDissectorName = 12;
@@ -390,10 +386,10 @@ Result<std::unique_ptr<ChunkSource>> pcap_source_from_stream(std::string head, s
             return Error{fmt::format("cannot read: {}", std::strerror(err)), name};
         }
     }
-    // Set before libpcap's first read. The file taken as it is was read from and then
-    // seeked back to its start, which left its buffer empty: glibc swaps it for this one.
-    auto read_buffer = std::make_unique_for_overwrite<char[]>(kReadBufferBytes);
-    std::setvbuf(stream, read_buffer.get(), _IOFBF, kReadBufferBytes);
+    // libpcap reads each packet with two small freads: with stdio's own 4 KiB buffer, a
+    // read() every ~60 packets of ours (docs/performance.md, stop 51). Set before libpcap's
+    // first read; the file taken as it is was seeked back to its start, its buffer empty.
+    auto read_buffer = give_stdio_buffer(stream);
     char errbuf[PCAP_ERRBUF_SIZE] = {};
     pcap_t* pcap =
         pcap_fopen_offline_with_tstamp_precision(stream, PCAP_TSTAMP_PRECISION_NANO, errbuf);

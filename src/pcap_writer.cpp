@@ -7,6 +7,7 @@
 #include <cerrno>
 #include <cstring>
 
+#include "rtuscope/io_block.hpp"
 #include "rtuscope/pcap.hpp"
 
 namespace rtuscope {
@@ -21,9 +22,6 @@ constexpr std::uint16_t kTagDstPort = 26;
 constexpr std::uint32_t kPortTypeTcp = 2;  // EXP_PDU_PT_TCP
 constexpr std::uint32_t kNanosecondMagic = 0xA1B23C4D;
 constexpr std::uint32_t kSnapLen = 65535;
-// stdio's buffer for the file. Its own, 4 KiB for a file, made a write() of every ~60
-// packets (docs/performance.md, stop 51). The size of the other sinks' output blocks.
-constexpr std::size_t kWriteBufferBytes = std::size_t{64} << 10;
 
 void put16be(std::vector<std::uint8_t>& out, std::uint16_t v) {
     out.push_back(static_cast<std::uint8_t>(v >> 8));
@@ -127,9 +125,9 @@ void append_pcap_packet(std::vector<std::uint8_t>& out, const Record& record) {
 PcapSink::PcapSink(std::FILE* file, std::string path)
     : file_(file),
       path_(std::move(path)),
-      write_buffer_(std::make_unique_for_overwrite<char[]>(kWriteBufferBytes)) {
-    std::setvbuf(file_, write_buffer_.get(), _IOFBF, kWriteBufferBytes);  // before any write
-}
+      // Before any write. stdio's own 4 KiB made a write() of every ~60 packets
+      // (docs/performance.md, stop 51).
+      write_buffer_(give_stdio_buffer(file)) {}
 
 PcapSink::~PcapSink() {
     if (file_ != nullptr) std::fclose(file_);

@@ -13,14 +13,11 @@
 #include <cstring>
 
 #include "readers.hpp"
+#include "rtuscope/io_block.hpp"
 #include "rtuscope/pcap.hpp"
 
 namespace rtuscope {
 namespace detail {
-
-namespace {
-constexpr std::size_t kBlockBytes = std::size_t{64} << 10;
-}  // namespace
 
 InputBuffer::InputBuffer(std::string initial, std::FILE* file, bool close_file, std::string name)
     : buf_(std::move(initial)),
@@ -43,8 +40,8 @@ Result<bool> InputBuffer::fill() {
         pos_ = 0;
     }
     // The sniffed head is only 4 KiB; reading on in pieces that small would be slow.
-    if (buf_.size() < kBlockBytes) {
-        buf_.resize(kBlockBytes);
+    if (buf_.size() < kIoBlockBytes) {
+        buf_.resize(kIoBlockBytes);
     } else if (end_ == buf_.size()) {
         buf_.resize(buf_.size() * 2);
     }

@@ -13,6 +13,7 @@
 #include <string_view>
 
 #include "rtuscope/decoder.hpp"
+#include "rtuscope/io_block.hpp"
 #include "rtuscope/sinks.hpp"
 
 namespace rtuscope {
@@ -83,7 +84,7 @@ class Pieces {
 
     std::string& text() { return text_; }
     void line_done() {
-        if (text_.size() >= kPieceBytes) send();
+        if (text_.size() >= kIoBlockBytes) send();
     }
     void send() {
         if (text_.empty()) return;
@@ -92,7 +93,6 @@ class Pieces {
     }
 
   private:
-    static constexpr std::size_t kPieceBytes = std::size_t{64} << 10;
     const std::function<void(std::string_view)>& send_;
     std::string text_;
 };

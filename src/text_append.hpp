@@ -18,6 +18,7 @@
 #include <string>
 #include <string_view>
 
+#include "rtuscope/io_block.hpp"
 #include "rtuscope/sinks.hpp"
 #include "rtuscope/time.hpp"
 
@@ -351,7 +352,7 @@ class BlockOutput {
     void write(std::size_t bound, Write write) {
         make_room(bound);
         used_ = static_cast<std::size_t>(write(block_.get() + used_) - block_.get());
-        if (used_ >= kBlockBytes) send();
+        if (used_ >= kIoBlockBytes) send();
     }
 
     // A record composed with std::string's appends (the text and JSONL sinks): line() is
@@ -376,13 +377,11 @@ class BlockOutput {
     }
 
   private:
-    static constexpr std::size_t kBlockBytes = std::size_t{64} << 10;
-
     void make_room(std::size_t bound) {
         if (capacity_ - used_ >= bound) return;
-        // Records are added below kBlockBytes (a full block is sent at once), so one block
+        // Records are added below kIoBlockBytes (a full block is sent at once), so one block
         // and a record's bound is all the room there ever is, unless a record is larger.
-        const std::size_t capacity = std::max(kBlockBytes, used_) + bound;
+        const std::size_t capacity = std::max(kIoBlockBytes, used_) + bound;
         auto larger = std::make_unique_for_overwrite<char[]>(capacity);
         if (used_ > 0) std::memcpy(larger.get(), block_.get(), used_);
         block_ = std::move(larger);

@@ -10,6 +10,7 @@
 
 #include "errors.hpp"
 #include "rtuscope/filter.hpp"
+#include "rtuscope/io_block.hpp"
 #include "rtuscope/sinks.hpp"
 #include "rtuscope/stats.hpp"
 
@@ -149,7 +150,7 @@ std::optional<Decoding> prepare_decoding(const OutputArgs& args, int& exit_code)
     // went out in 4 KiB writes). The buffer is static, with nothing to destroy: stdio
     // flushes it after static destructors.
     if (!isatty(STDOUT_FILENO)) {
-        static std::array<char, std::size_t{64} << 10> stdout_buffer;
+        static std::array<char, kIoBlockBytes> stdout_buffer;
         std::setvbuf(stdout, stdout_buffer.data(), _IOFBF, stdout_buffer.size());
     }
 
