@@ -35,10 +35,10 @@
 #include <utility>
 #include <vector>
 
-#include "rtuscope/crc.hpp"
-#include "rtuscope/framer.hpp"
-#include "rtuscope/protocol_rules.hpp"
-#include "rtuscope/sources.hpp"
+#include "framing/crc.hpp"
+#include "framing/framer.hpp"
+#include "framing/protocol_rules.hpp"
+#include "input/sources.hpp"
 
 namespace {
 

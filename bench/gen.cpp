@@ -14,7 +14,7 @@
 #include <memory>
 #include <string>
 
-#include "rtuscope/capture_writer.hpp"
+#include "input/capture_writer.hpp"
 #include "traffic.hpp"
 
 namespace {

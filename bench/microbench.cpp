@@ -4,9 +4,9 @@
 #include <string>
 #include <vector>
 
-#include "rtuscope/crc.hpp"
-#include "rtuscope/framer.hpp"
-#include "rtuscope/sources.hpp"
+#include "framing/crc.hpp"
+#include "framing/framer.hpp"
+#include "input/sources.hpp"
 #include "traffic.hpp"
 
 namespace {

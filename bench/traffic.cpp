@@ -3,9 +3,9 @@
 #include <algorithm>
 #include <vector>
 
-#include "rtuscope/capture_writer.hpp"
-#include "rtuscope/crc.hpp"
-#include "rtuscope/time.hpp"
+#include "input/capture_writer.hpp"
+#include "framing/crc.hpp"
+#include "util/time.hpp"
 
 namespace rtuscope::bench {
 namespace {

@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "rtuscope/chunk.hpp"
+#include "input/chunk.hpp"
 
 namespace rtuscope::bench {
 

@@ -1,8 +1,8 @@
-# Writes OUTPUT: a C++ include with every PROFILE_DIR/*.toml as a raw string, so the
-# bundled profiles work from any directory. Run at build time whenever a profile changes.
-file(GLOB PROFILES ${PROFILE_DIR}/*.toml)
-list(SORT PROFILES)
-set(content "// Generated from profiles/*.toml by cmake/embed_profiles.cmake. Do not edit.\n")
+# Writes OUTPUT: a C++ include with each file of PROFILES (paths joined with |) as a raw
+# string, so that the bundled profiles work from any directory. Run at build time whenever
+# one changes.
+string(REPLACE "|" ";" PROFILES "${PROFILES}")
+set(content "// Generated from the bundled profiles by cmake/embed_profiles.cmake. Do not edit.\n")
 string(APPEND content "struct BundledProfileFile {\n    const char* name;\n    const char* text;\n};\n")
 string(APPEND content "const std::vector<BundledProfileFile> kBundledProfileFiles = {\n")
 foreach(file IN LISTS PROFILES)

@@ -11,13 +11,13 @@
 #include <string>
 #include <vector>
 
-#include "rtuscope/bus.hpp"
-#include "rtuscope/filter.hpp"
-#include "rtuscope/pipeline.hpp"
-#include "rtuscope/profile.hpp"
-#include "rtuscope/sinks.hpp"
-#include "rtuscope/sources.hpp"
-#include "rtuscope/stats.hpp"
+#include "profiles/bus.hpp"
+#include "output/filter.hpp"
+#include "pipeline.hpp"
+#include "profiles/profile.hpp"
+#include "output/sinks.hpp"
+#include "input/sources.hpp"
+#include "stats/report.hpp"
 
 namespace rtuscope::fuzz {
 

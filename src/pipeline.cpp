@@ -1,12 +1,12 @@
-#include "rtuscope/pipeline.hpp"
+#include "pipeline.hpp"
 
 #include <fmt/format.h>
 
 #include <algorithm>
 
-#include "rtuscope/decoder.hpp"
-#include "rtuscope/framer.hpp"
-#include "rtuscope/sinks.hpp"
+#include "decode/decoder.hpp"
+#include "framing/framer.hpp"
+#include "output/sinks.hpp"
 
 namespace rtuscope {
 namespace {

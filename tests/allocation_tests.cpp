@@ -17,12 +17,13 @@
 #include <string>
 #include <vector>
 
-#include "rtuscope/capture_writer.hpp"
-#include "rtuscope/pcap.hpp"
-#include "rtuscope/pipeline.hpp"
-#include "rtuscope/sinks.hpp"
-#include "rtuscope/sources.hpp"
-#include "rtuscope/stats.hpp"
+#include "input/capture_writer.hpp"
+#include "input/pcap.hpp"
+#include "output/pcap_writer.hpp"
+#include "pipeline.hpp"
+#include "output/sinks.hpp"
+#include "input/sources.hpp"
+#include "stats/report.hpp"
 #include "support.hpp"
 
 namespace {

@@ -14,12 +14,12 @@
 #include <string>
 #include <vector>
 
-#include "rtuscope/bus.hpp"
-#include "rtuscope/chunk.hpp"
-#include "rtuscope/crc.hpp"
-#include "rtuscope/framer.hpp"
-#include "rtuscope/pipeline.hpp"
-#include "rtuscope/transactions.hpp"
+#include "profiles/bus.hpp"
+#include "input/chunk.hpp"
+#include "framing/crc.hpp"
+#include "framing/framer.hpp"
+#include "pipeline.hpp"
+#include "pairing/transactions.hpp"
 
 namespace rtuscope::test {
 

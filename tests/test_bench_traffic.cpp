@@ -16,10 +16,10 @@
 #include <utility>
 #include <vector>
 
-#include "rtuscope/bus.hpp"
-#include "rtuscope/capture_writer.hpp"
-#include "rtuscope/pipeline.hpp"
-#include "rtuscope/sources.hpp"
+#include "profiles/bus.hpp"
+#include "input/capture_writer.hpp"
+#include "pipeline.hpp"
+#include "input/sources.hpp"
 #include "support.hpp"
 #include "traffic.hpp"
 

@@ -2,8 +2,8 @@
 // (length, echo answers), its broadcast address, silence instead of exceptions.
 #include <gtest/gtest.h>
 
-#include "rtuscope/bus.hpp"
-#include "rtuscope/pipeline.hpp"
+#include "profiles/bus.hpp"
+#include "pipeline.hpp"
 #include "support.hpp"
 
 namespace rtuscope {

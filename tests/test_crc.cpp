@@ -6,7 +6,7 @@
 #include <string_view>
 #include <vector>
 
-#include "rtuscope/crc.hpp"
+#include "framing/crc.hpp"
 
 namespace rtuscope {
 namespace {

@@ -5,8 +5,8 @@
 #include <random>
 #include <vector>
 
-#include "rtuscope/crc.hpp"
-#include "rtuscope/crc_end_index.hpp"
+#include "framing/crc.hpp"
+#include "framing/crc_end_index.hpp"
 
 namespace rtuscope {
 namespace {

@@ -8,7 +8,7 @@
 #include <string_view>
 #include <vector>
 
-#include "rtuscope/decoder.hpp"
+#include "decode/decoder.hpp"
 
 namespace rtuscope {
 namespace {

@@ -7,7 +7,7 @@
 #include <set>
 #include <sstream>
 
-#include "rtuscope/framer.hpp"
+#include "framing/framer.hpp"
 #include "support.hpp"
 
 namespace rtuscope {

@@ -13,13 +13,13 @@
 #include <chrono>
 #include <thread>
 
-#include "rtuscope/bus.hpp"
-#include "rtuscope/capture_writer.hpp"
-#include "rtuscope/crc.hpp"
-#include "rtuscope/pipeline.hpp"
-#include "rtuscope/sim.hpp"
-#include "rtuscope/sources.hpp"
-#include "rtuscope/tty.hpp"
+#include "profiles/bus.hpp"
+#include "input/capture_writer.hpp"
+#include "framing/crc.hpp"
+#include "pipeline.hpp"
+#include "sim/sim.hpp"
+#include "input/sources.hpp"
+#include "input/tty.hpp"
 #include "support.hpp"
 
 namespace rtuscope {

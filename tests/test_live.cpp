@@ -7,10 +7,10 @@
 #include <cstdlib>
 #include <sstream>
 
-#include "rtuscope/capture_writer.hpp"
-#include "rtuscope/pipeline.hpp"
-#include "rtuscope/sources.hpp"
-#include "rtuscope/tty.hpp"
+#include "input/capture_writer.hpp"
+#include "pipeline.hpp"
+#include "input/sources.hpp"
+#include "input/tty.hpp"
 #include "support.hpp"
 
 namespace rtuscope {

@@ -12,11 +12,11 @@
 #include <utility>
 #include <vector>
 
-#include "rtuscope/bus.hpp"
-#include "rtuscope/filter.hpp"
-#include "rtuscope/pipeline.hpp"
-#include "rtuscope/sinks.hpp"
-#include "rtuscope/sources.hpp"
+#include "profiles/bus.hpp"
+#include "output/filter.hpp"
+#include "pipeline.hpp"
+#include "output/sinks.hpp"
+#include "input/sources.hpp"
 #include "support.hpp"
 
 namespace rtuscope {

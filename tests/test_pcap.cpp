@@ -8,8 +8,9 @@
 #include <fstream>
 #include <sstream>
 
-#include "rtuscope/pcap.hpp"
-#include "rtuscope/sources.hpp"
+#include "input/pcap.hpp"
+#include "output/pcap_writer.hpp"
+#include "input/sources.hpp"
 #include "support.hpp"
 
 namespace rtuscope {

@@ -4,8 +4,8 @@
 #include <string>
 #include <vector>
 
-#include "rtuscope/pipeline.hpp"
-#include "rtuscope/sources.hpp"
+#include "pipeline.hpp"
+#include "input/sources.hpp"
 #include "support.hpp"
 
 namespace rtuscope {

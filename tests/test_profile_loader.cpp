@@ -4,8 +4,8 @@
 
 #include <string>
 
-#include "rtuscope/profile.hpp"
-#include "rtuscope/profile_formula.hpp"
+#include "profiles/profile.hpp"
+#include "profiles/profile_formula.hpp"
 
 namespace rtuscope {
 namespace {

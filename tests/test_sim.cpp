@@ -12,11 +12,11 @@
 #include <thread>
 #include <vector>
 
-#include "rtuscope/crc.hpp"
-#include "rtuscope/sim.hpp"
+#include "framing/crc.hpp"
+#include "sim/sim.hpp"
 
 // The devices' frame splitter is private to the simulator.
-#include "../src/sim/sim_util.hpp"
+#include "sim/sim_util.hpp"
 
 namespace rtuscope::sim {
 namespace {

@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-#include "rtuscope/sources.hpp"
+#include "input/sources.hpp"
 #include "support.hpp"
 
 namespace rtuscope {

@@ -10,9 +10,9 @@
 #include <string>
 #include <vector>
 
-#include "rtuscope/sinks.hpp"
-#include "rtuscope/sources.hpp"
-#include "rtuscope/stats.hpp"
+#include "output/sinks.hpp"
+#include "input/sources.hpp"
+#include "stats/report.hpp"
 #include "support.hpp"
 #include "traffic.hpp"
 

@@ -4,8 +4,8 @@
 
 #include <set>
 
-#include "rtuscope/framer.hpp"
-#include "rtuscope/transactions.hpp"
+#include "framing/framer.hpp"
+#include "pairing/transactions.hpp"
 #include "support.hpp"
 
 namespace rtuscope {

@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "rtuscope/values.hpp"
+#include "profiles/values.hpp"
 
 namespace rtuscope {
 namespace {

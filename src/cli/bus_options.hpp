@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "rtuscope/bus.hpp"
+#include "profiles/bus.hpp"
 
 namespace rtuscope::cli {
 

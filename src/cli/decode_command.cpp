@@ -7,7 +7,7 @@
 
 #include "errors.hpp"
 #include "output_options.hpp"
-#include "rtuscope/sources.hpp"
+#include "input/sources.hpp"
 
 namespace rtuscope::cli {
 namespace {

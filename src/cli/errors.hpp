@@ -6,7 +6,7 @@
 
 #include <cstdio>
 
-#include "rtuscope/result.hpp"
+#include "util/result.hpp"
 
 namespace rtuscope::cli {
 

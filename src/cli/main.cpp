@@ -9,7 +9,7 @@
 
 #include "decode_command.hpp"
 #include "profiles_command.hpp"
-#include "rtuscope/sinks.hpp"
+#include "output/sinks.hpp"
 #include "sniff_command.hpp"
 
 namespace {
@@ -18,7 +18,7 @@ int run(int argc, char** argv) {
     CLI::App app{
         "rtuscope: a passive Modbus RTU bus analyser. It frames, CRC-checks, pairs and "
         "decodes the traffic of an RS-485 line, and never transmits."};
-    app.set_version_flag("--version", "rtuscope 0.1.0");
+    app.set_version_flag("--version", "rtuscope " RTUSCOPE_VERSION);
     app.require_subcommand(1);
     int exit_code = 0;
     rtuscope::cli::add_decode_command(app, exit_code);

@@ -9,10 +9,10 @@
 #include <tuple>
 
 #include "errors.hpp"
-#include "rtuscope/filter.hpp"
-#include "rtuscope/io_block.hpp"
-#include "rtuscope/sinks.hpp"
-#include "rtuscope/stats.hpp"
+#include "output/filter.hpp"
+#include "util/io_block.hpp"
+#include "output/sinks.hpp"
+#include "stats/report.hpp"
 
 namespace rtuscope::cli {
 

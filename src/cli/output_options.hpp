@@ -9,8 +9,8 @@
 #include <string>
 
 #include "bus_options.hpp"
-#include "rtuscope/pcap.hpp"
-#include "rtuscope/pipeline.hpp"
+#include "output/pcap_writer.hpp"
+#include "pipeline.hpp"
 
 namespace rtuscope::cli {
 

@@ -13,9 +13,9 @@
 
 #include "errors.hpp"
 #include "output_options.hpp"
-#include "rtuscope/capture_writer.hpp"
-#include "rtuscope/sim.hpp"
-#include "rtuscope/tty.hpp"
+#include "input/capture_writer.hpp"
+#include "sim/sim.hpp"
+#include "input/tty.hpp"
 
 namespace rtuscope::cli {
 namespace {

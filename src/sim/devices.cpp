@@ -11,8 +11,8 @@
 #include <chrono>
 #include <system_error>
 
-#include "rtuscope/sim.hpp"
-#include "sim_util.hpp"
+#include "sim/sim.hpp"
+#include "sim/sim_util.hpp"
 
 namespace rtuscope::sim {
 

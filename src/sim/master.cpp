@@ -10,8 +10,8 @@
 #include <condition_variable>
 #include <system_error>
 
-#include "rtuscope/sim.hpp"
-#include "sim_util.hpp"
+#include "sim/sim.hpp"
+#include "sim/sim_util.hpp"
 
 namespace rtuscope::sim {
 

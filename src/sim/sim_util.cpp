@@ -1,5 +1,5 @@
 // Private helpers of the simulator (see sim_util.hpp).
-#include "sim_util.hpp"
+#include "sim/sim_util.hpp"
 
 #include <poll.h>
 #include <unistd.h>
@@ -9,7 +9,7 @@
 #include <cstring>
 #include <span>
 
-#include "rtuscope/crc.hpp"
+#include "framing/crc.hpp"
 
 namespace rtuscope::sim {
 

@@ -16,9 +16,9 @@
 #include <string>
 #include <system_error>
 
-#include "../tty_speed.hpp"
-#include "rtuscope/sim.hpp"
-#include "sim_util.hpp"
+#include "input/tty_speed.hpp"
+#include "sim/sim.hpp"
+#include "sim/sim_util.hpp"
 
 namespace rtuscope::sim {
 

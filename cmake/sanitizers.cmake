@@ -1,0 +1,30 @@
+# rtuscope_sanitizers: what every target is built and linked with when a sanitizer is
+# asked for. rtuscope_lib links it PUBLIC, so that everything built on the library (the
+# CLI, the simulators, the tests, the benchmarks) is instrumented alike.
+#   RTUSCOPE_SANITIZE  AddressSanitizer + UndefinedBehaviorSanitizer (scripts/test)
+#   RTUSCOPE_TSAN      ThreadSanitizer, for the tests that run threads (scripts/test)
+#   RTUSCOPE_FUZZ      ASan + UBSan and libFuzzer's coverage, for fuzz/ (clang only)
+option(RTUSCOPE_SANITIZE "Build with AddressSanitizer and UndefinedBehaviorSanitizer" OFF)
+option(RTUSCOPE_TSAN "Build with ThreadSanitizer" OFF)
+option(RTUSCOPE_FUZZ "Build the libFuzzer targets (clang)" OFF)
+
+add_library(rtuscope_sanitizers INTERFACE)
+set(address_flags -fsanitize=address,undefined -fno-sanitize-recover=all -fno-omit-frame-pointer)
+if(RTUSCOPE_TSAN AND (RTUSCOPE_SANITIZE OR RTUSCOPE_FUZZ))
+  message(FATAL_ERROR "RTUSCOPE_TSAN cannot be combined with RTUSCOPE_SANITIZE or RTUSCOPE_FUZZ")
+endif()
+if(RTUSCOPE_SANITIZE OR RTUSCOPE_FUZZ)
+  target_compile_options(rtuscope_sanitizers INTERFACE ${address_flags})
+  target_link_options(rtuscope_sanitizers INTERFACE ${address_flags})
+endif()
+if(RTUSCOPE_FUZZ)
+  if(NOT CMAKE_CXX_COMPILER_ID MATCHES "Clang")
+    message(FATAL_ERROR "RTUSCOPE_FUZZ needs clang (CXX=clang++): libFuzzer is part of clang")
+  endif()
+  # Coverage for the fuzzer in everything it reaches; the targets add -fsanitize=fuzzer.
+  target_compile_options(rtuscope_sanitizers INTERFACE -fsanitize=fuzzer-no-link -g)
+endif()
+if(RTUSCOPE_TSAN)
+  target_compile_options(rtuscope_sanitizers INTERFACE -fsanitize=thread -fno-omit-frame-pointer -g)
+  target_link_options(rtuscope_sanitizers INTERFACE -fsanitize=thread)
+endif()

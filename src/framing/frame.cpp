@@ -1,0 +1,38 @@
+#include "framing/frame.hpp"
+
+namespace rtuscope {
+
+std::span<const std::uint8_t> Frame::pdu() const {
+    if (bytes.size() < 4) return {};  // address, function, CRC at least
+    return std::span(bytes).subspan(1, bytes.size() - 3);
+}
+
+const char* to_string(RecordClass cls) {
+    switch (cls) {
+        case RecordClass::frame:
+            return "frame";
+        case RecordClass::invalid:
+            return "invalid";
+        case RecordClass::noise:
+            return "noise";
+    }
+    return "";
+}
+
+const char* to_string(Delimiter delimiter) {
+    switch (delimiter) {
+        case Delimiter::gap:
+            return "gap";
+        case Delimiter::length_crc:
+            return "length+crc";
+        case Delimiter::crc_search:
+            return "crc-search";
+        case Delimiter::end_of_input:
+            return "end of input";
+        case Delimiter::line:
+            return "line";
+    }
+    return "";
+}
+
+}  // namespace rtuscope

@@ -1,0 +1,795 @@
+// The passive framer. See framer.hpp for why gaps alone cannot delimit frames.
+//
+// Bytes wait in a buffer until the first undecided byte can be decided:
+//  1. At the first byte, every reading the function code allows (request, answer,
+//     exception) gives a length; a length whose CRC checks is a frame. When several do
+//     (a request followed by 00 also passes as a 9-byte FC03 answer), the reading the
+//     request/answer sequence expects wins, then the one followed by a gap, then the
+//     shorter. Function codes whose length no field gives are found by the CRC over
+//     the possible lengths, bounded by the next gap where the input has timing; a
+//     length with a frame of known length inside is a chance, not a frame.
+//  2. Otherwise the bytes up to the next position where a frame starts are cut at gaps;
+//     a piece that exactly fits a frame's shape is an invalid frame (CRC wrong), a piece
+//     that is cut short between two gaps is a truncated frame, the rest is noise.
+#include "framing/framer.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <functional>
+#include <limits>
+#include <span>
+#include <vector>
+
+namespace rtuscope {
+namespace {
+
+// A gap before the first byte of the input or of a new channel: always a boundary.
+constexpr Nanos kBoundary = std::numeric_limits<Nanos>::max();
+
+// The items of `list`, in order of their buffer index (`index_of`), that lie within the
+// frame of `length` bytes at `at`: found by search, as a list can hold one a byte.
+template <class T, class IndexOf = std::identity>
+std::span<const T> within_frame(const std::vector<T>& list, std::size_t at, std::size_t length,
+                                IndexOf index_of = {}) {
+    const auto first = std::ranges::lower_bound(list, at, {}, index_of);
+    return {first, std::ranges::lower_bound(first, list.end(), at + length, {}, index_of)};
+}
+
+// A silence the input measured (a boundary or an unknown gap is none).
+bool is_measured(Nanos gap) {
+    return gap != kNoTime && gap != kBoundary;
+}
+
+Reading reading_for(Role role, std::uint8_t function) {
+    if (role == Role::request) return Reading::request;
+    return (function & 0x80U) ? Reading::exception : Reading::response;
+}
+
+// The CRC as it should be and as it came, in wire order (low byte first).
+void add_crc_note(Frame& frame) {
+    const CrcCheck& crc = frame.crc;
+    if (crc.status != CrcStatus::bad && crc.status != CrcStatus::swapped) return;
+    const bool bad = crc.status == CrcStatus::bad;
+    frame.notes.push_back(
+        {bad ? note_id::crc_mismatch : note_id::crc_swapped,
+         fmt::format("{} (expected {:02X} {:02X}, got {:02X} {:02X})",
+                     bad ? "CRC BAD" : "CRC bytes swapped", crc.expected & 0xFFU, crc.expected >> 8,
+                     crc.received & 0xFFU, crc.received >> 8)});
+}
+
+// How well a reading's CRC checks, for the choice between readings: right beats swapped
+// beats wrong.
+int crc_rank(CrcStatus status) {
+    return status == CrcStatus::ok ? 2 : status == CrcStatus::swapped ? 1 : 0;
+}
+
+// The reading at the start of `head` when the CRCs alone settle it: each reading's length
+// is in hand (or it has none) and exactly one checks best. Most positions are like that;
+// the rest go through attempt_at's general rules. Inlined: returned from a call, the
+// result came back through the stack and stalled its reader (as check_crc's did).
+struct PlainReading {
+    bool decided = false;  // false: the general rules must decide
+    bool found = false;    // decided: a reading checks (else no frame starts here)
+    // found: both readings are these same bytes (echoed answers: FC05, FC06, ...), so
+    // `role` is not settled: the request/answer order decides.
+    bool either = false;
+    std::size_t length = 0;
+    Role role = Role::request;
+    std::uint16_t expected_crc = 0;  // of its bytes before the last two; the caller checks
+};
+
+[[gnu::always_inline]] inline PlainReading plain_reading(std::span<const std::uint8_t> head,
+                                                         const FrameLengths& lengths) {
+    PlainReading result;
+    const FrameLength& request = lengths.request;
+    const FrameLength& response = lengths.response;
+    const bool request_fits = request.fixed_within(head.size());
+    const bool response_fits = response.fixed_within(head.size());
+    if ((!request_fits && request.kind != FrameLength::Kind::none) ||
+        (!response_fits && response.kind != FrameLength::Kind::none) ||
+        (!request_fits && !response_fits)) {
+        return result;  // undecided: attempt_at's general rules take over
+    }
+    result.decided = true;
+    // One reading fits, or both are the same bytes: one CRC settles it.
+    const bool same_bytes = request_fits && response_fits && request.bytes == response.bytes;
+    if (same_bytes || !request_fits || !response_fits) {
+        const Role role = request_fits ? Role::request : Role::response;
+        const std::size_t n = lengths.of(role).bytes;
+        const std::uint16_t crc = crc16_modbus(head.first(n - 2));
+        if (crc_check_of(head.first(n), crc).status != CrcStatus::bad) {
+            result = {true, true, same_bytes, n, role, crc};
+        }
+        return result;
+    }
+    // One pass for both: the CRC of the shorter reading is where the longer one's begins.
+    const bool request_shorter = request.bytes < response.bytes;
+    const std::size_t shorter = request_shorter ? request.bytes : response.bytes;
+    const std::size_t longer = request_shorter ? response.bytes : request.bytes;
+    const std::uint16_t short_crc = crc16_modbus(head.first(shorter - 2));
+    const std::uint16_t long_crc =
+        crc16_modbus_update(short_crc, head.subspan(shorter - 2, longer - shorter));
+    const int short_rank = crc_rank(crc_check_of(head.first(shorter), short_crc).status);
+    const int long_rank = crc_rank(crc_check_of(head.first(longer), long_crc).status);
+    if (short_rank == long_rank) {
+        // Neither checks: no frame. Both equally: order and silences decide (attempt_at).
+        result.decided = short_rank == 0;
+        return result;
+    }
+    const bool short_wins = short_rank > long_rank;
+    result.found = true;
+    result.length = short_wins ? shorter : longer;
+    result.role = short_wins == request_shorter ? Role::request : Role::response;
+    result.expected_crc = short_wins ? short_crc : long_crc;
+    return result;
+}
+
+double in_ms(Nanos t) {
+    return static_cast<double>(t) / 1e6;
+}
+
+}  // namespace
+
+Framer::Framer(const FramerOptions& options, Emit emit)
+    : options_(options),
+      emit_(std::move(emit)),
+      char_time_(options.line.char_time()),
+      t15_(options.line.t15()),
+      t35_(options.line.t35()) {}
+
+std::uint32_t Framer::channel_number(const std::string& name) {
+    if (auto it = channel_numbers_.find(name); it != channel_numbers_.end()) return it->second;
+    if (channels_.size() >= channels_limit_) forget_unused_channels();
+    const auto number = static_cast<std::uint32_t>(channels_.size());
+    channels_.push_back(name);
+    channel_numbers_.emplace(name, number);
+    return number;
+}
+
+void Framer::forget_unused_channels() {
+    // Only the buffered chunks' channels are still needed. A tap has two; a crafted
+    // capture may name millions (and their number overflowed the pieces' 16-bit index at
+    // 65,536: frames were given another channel's name).
+    constexpr std::uint32_t kUnused = ~std::uint32_t{0};
+    std::vector<std::uint32_t> renumbered(channels_.size(), kUnused);
+    std::vector<std::string> kept;
+    for (Piece& piece : pieces_) {
+        std::uint32_t& to = renumbered[piece.channel];
+        if (to == kUnused) {
+            to = static_cast<std::uint32_t>(kept.size());
+            kept.push_back(std::move(channels_[piece.channel]));
+        }
+        piece.channel = to;
+    }
+    channels_ = std::move(kept);
+    channel_numbers_.clear();
+    for (std::uint32_t i = 0; i < channels_.size(); ++i) channel_numbers_.emplace(channels_[i], i);
+    channels_limit_ = 2 * channels_.size() + kChannelsKept;
+}
+
+void Framer::push(const Chunk& chunk) {
+    if (chunk.bytes.empty()) return;
+    if (options_.chunk_is_frame) {
+        emit_chunk_as_frame(chunk);
+        return;
+    }
+
+    // Channel of this chunk; a change of channel is a frame boundary.
+    if (channels_.empty() || channels_[last_channel_] != chunk.channel) {
+        last_channel_ = channel_number(chunk.channel);
+    }
+    const std::uint32_t channel = last_channel_;
+    const bool channel_changed =
+        !pieces_.empty() && pos_ < bytes_.size() && pieces_.back().channel != channel;
+
+    // The chunk's time is when its last byte arrived; earlier bytes are placed back to
+    // back before it, but never before the previous byte (adapters deliver late).
+    const auto n = static_cast<Nanos>(chunk.bytes.size());
+    Nanos first_start = kNoTime;
+    Nanos gap = kNoTime;
+    if (has_time(chunk.time)) {
+        first_start = chunk.time - n * char_time_;
+        if (has_time(last_end_)) {
+            gap = std::max<Nanos>(0, first_start - last_end_);
+            if (first_start < last_end_ && chunk.time >= last_end_) first_start = last_end_;
+        }
+    }
+    if (!seen_bytes_ || channel_changed) gap = kBoundary;
+    // A capture whose clock jumps back (a hand-edited file, a reset clock) cannot say how
+    // long the line was quiet: no gap to measure, no turnaround, and the frame says why.
+    if (has_time(chunk.time) && has_time(last_end_) && chunk.time < last_end_) {
+        time_jumps_.emplace_back(bytes_.size(), last_end_ - chunk.time);
+        gap = kBoundary;
+    }
+
+    Piece piece;
+    piece.first = base_ + bytes_.size();
+    piece.end = piece.first + chunk.bytes.size();
+    piece.first_start = first_start;
+    if (has_time(chunk.time)) {
+        piece.step = (chunk.time - first_start) / n;
+        piece.step_remainder = (chunk.time - first_start) % n;
+    }
+    piece.time = chunk.time;
+    piece.gap = gap;
+    piece.line = chunk.source_line;
+    piece.channel = channel;
+    piece.exact = chunk.bytes.size() == 1 && previous_chunk_single_;
+    pieces_.push_back(piece);
+    if (ends_frame(gap)) frame_gaps_.push_back(piece.first);
+    const auto errors_before = static_cast<std::ptrdiff_t>(char_errors_.size());
+    for (const std::uint32_t offset : chunk.char_errors) {
+        if (offset < chunk.bytes.size()) char_errors_.push_back(bytes_.size() + offset);
+    }
+    // Kept in order, so that a frame finds its own by binary search.
+    std::sort(char_errors_.begin() + errors_before, char_errors_.end());
+    bytes_.insert(bytes_.end(), chunk.bytes.begin(), chunk.bytes.end());
+    if (has_time(chunk.time)) last_end_ = chunk.time;
+    previous_chunk_single_ = chunk.bytes.size() == 1;
+    seen_bytes_ = true;
+    decide(false);
+}
+
+void Framer::idle(Nanos now, Nanos idle_margin) {
+    if (pos_ >= bytes_.size() || !has_time(last_end_) || !has_time(now)) return;
+    if (now - last_end_ < t35_ + idle_margin) return;
+    decide(true);
+}
+
+void Framer::finish() {
+    decide(true);
+}
+
+const Framer::Piece& Framer::find_piece(std::size_t at) const {
+    const std::uint64_t index = base_ + at;
+    // Most lookups are just after the previous one.
+    std::size_t i = piece_hint_ < pieces_.size() ? piece_hint_ : 0;
+    if (pieces_[i].first > index) i = 0;
+    for (std::size_t steps = 0; i + 1 < pieces_.size() && pieces_[i + 1].first <= index; ++i) {
+        if (++steps == 4) {
+            auto it = std::upper_bound(
+                pieces_.begin() + static_cast<std::ptrdiff_t>(i), pieces_.end(), index,
+                [](std::uint64_t value, const Piece& p) { return value < p.first; });
+            i = static_cast<std::size_t>(it - pieces_.begin()) - 1;
+            break;
+        }
+    }
+    piece_hint_ = i;
+    return pieces_[i];
+}
+
+Nanos Framer::byte_end(std::size_t at) const {
+    return byte_end(piece_of(at), at);
+}
+
+Nanos Framer::byte_end(const Piece& p, std::size_t at) const {
+    if (!has_time(p.time)) return kNoTime;
+    // Spread evenly over the chunk, its last byte ending at the chunk's time:
+    // first_start + span * (i + 1) / n. With span = step * n + step_remainder that is
+    // step * (i + 1) + step_remainder * (i + 1) / n, whose division is of numbers below
+    // n * n, not of nanoseconds: a 64-bit division per frame was a measurable part of a
+    // decode, a 32-bit one is several times cheaper.
+    const auto i = static_cast<Nanos>(base_ + at - p.first);
+    if (i == 0) return p.first_start + p.step;
+    const auto n = static_cast<Nanos>(p.end - p.first);
+    if (i + 1 == n) return p.time;
+    const Nanos part = p.step_remainder * (i + 1);
+    // A chunk placed back to back before its time spans exactly n characters: no
+    // remainder, no division (most chunks of a capture).
+    if (part == 0) return p.first_start + p.step * (i + 1);
+    const Nanos extra =
+        n < (1 << 15) ? static_cast<std::int32_t>(part) / static_cast<std::int32_t>(n) : part / n;
+    return p.first_start + p.step * (i + 1) + extra;
+}
+
+Nanos Framer::gap_at(std::size_t at) const {
+    return gap_at(piece_of(at), at);
+}
+
+Nanos Framer::gap_at(const Piece& p, std::size_t at) const {
+    return p.first == base_ + at ? p.gap : kNoTime;
+}
+
+bool Framer::gap_before(std::size_t at) const {
+    if (at >= bytes_.size()) return false;
+    return ends_frame(gap_at(at));
+}
+
+std::size_t Framer::gap_after(std::size_t after, std::size_t limit) const {
+    if (after + 1 >= limit) return limit;
+    const auto next = std::ranges::upper_bound(frame_gaps_, base_ + after);
+    if (next == frame_gaps_.end()) return limit;
+    return std::min(static_cast<std::size_t>(*next - base_), limit);
+}
+
+std::size_t Framer::next_gap(std::size_t after) const {
+    // Only the next kMaxAdu bytes matter to the callers (a frame is never longer).
+    const std::size_t limit = std::min(bytes_.size(), after + kMaxAdu + 1);
+    const std::size_t found = gap_after(after, limit);
+    return found < limit ? found : bytes_.size();
+}
+
+Framer::Attempt Framer::attempt_at(std::size_t at, bool at_end) const {
+    Attempt none;
+    const std::size_t avail = bytes_.size() - at;
+    if (avail < 2) {
+        none.outcome = at_end ? Outcome::no_frame : Outcome::need_more;
+        none.wanted = 2;
+        return none;
+    }
+    const auto head = std::span(bytes_).subspan(at, std::min(avail, kMaxAdu));
+    const std::uint8_t function = head[1];
+    const ProtocolRules& rules = *options_.rules;
+
+    const FrameLengths lengths = rules.frame_lengths(head);
+    if (const auto plain = plain_reading(head, lengths); plain.decided) {
+        if (!plain.found) return none;
+        Attempt frame;
+        frame.outcome = Outcome::frame;
+        frame.length = plain.length;
+        const Role role = plain.either && expects_answer_at(at, head) ? Role::response : plain.role;
+        frame.reading = reading_for(role, function);
+        frame.crc = crc_check_of(head.first(plain.length), plain.expected_crc);
+        return with_delimiter(frame, at, at_end);
+    }
+
+    // Only asked when two readings fit or the length was searched, so worked out on
+    // first use.
+    enum class Preference : std::uint8_t { unknown, request, response };
+    Preference preference = Preference::unknown;
+    auto prefers_response = [&] {
+        if (preference == Preference::unknown) {
+            preference = expects_answer_at(at, head) ? Preference::response : Preference::request;
+        }
+        return preference == Preference::response;
+    };
+
+    // Bytes (from `at`) a reading still waits for; 0: none waits.
+    std::size_t wanted = 0;
+    auto wait_for = [&](std::size_t bytes) {
+        wanted = wanted == 0 ? bytes : std::min(wanted, bytes);
+    };
+    bool searched = false;
+    Attempt best;
+    auto better = [&](const Attempt& a, const Attempt& b) {
+        if (crc_rank(a.crc.status) != crc_rank(b.crc.status)) {
+            return crc_rank(a.crc.status) > crc_rank(b.crc.status);
+        }
+        const bool a_answer = a.reading != Reading::request;
+        if (a_answer != (b.reading != Reading::request)) return a_answer == prefers_response();
+        const bool a_gap = followed_by_gap(at + a.length, at_end);
+        if (a_gap != followed_by_gap(at + b.length, at_end)) return a_gap;
+        return a.length < b.length;
+    };
+
+    for (const Role role : {Role::request, Role::response}) {
+        const FrameLength& length = lengths.of(role);
+        Attempt candidate;
+        candidate.outcome = Outcome::frame;
+        candidate.reading = reading_for(role, function);
+        switch (length.kind) {
+            case FrameLength::Kind::none:
+                continue;
+            case FrameLength::Kind::need_more:
+                // More bytes would tell the length (head is all that is buffered).
+                if (!at_end && head.size() < kMaxAdu) wait_for(length.bytes);
+                continue;
+            case FrameLength::Kind::fixed: {
+                if (length.bytes < kMinAdu) continue;
+                if (length.bytes > avail) {
+                    if (!at_end) wait_for(length.bytes);
+                    continue;
+                }
+                candidate.length = length.bytes;
+                candidate.crc = check_crc(head.first(length.bytes));
+                if (candidate.crc.status == CrcStatus::bad) continue;
+                candidate.delimiter = Delimiter::length_crc;
+                break;
+            }
+            case FrameLength::Kind::search: {
+                // A code one reading searches, the other does too, and the search does not
+                // depend on the reading: the request reading's search decided it.
+                if (searched) continue;
+                searched = true;
+                const Search found = search_length(at, at_end, true);
+                if (found.pending) wait_for(avail + 1);  // a gap may end the search
+                if (found.length == 0) continue;
+                candidate.length = found.length;
+                candidate.crc = check_crc(head.first(found.length));
+                candidate.delimiter = Delimiter::crc_search;
+                // Order, not shape, tells which way these go.
+                candidate.reading =
+                    prefers_response() ? reading_for(Role::response, function) : Reading::request;
+                break;
+            }
+        }
+        if (best.outcome != Outcome::frame || better(candidate, best)) {
+            best = candidate;
+        }
+    }
+
+    if (wanted != 0) {
+        none.outcome = Outcome::need_more;
+        none.wanted = wanted;
+        return none;
+    }
+    if (best.outcome != Outcome::frame) return none;
+    if (best.delimiter != Delimiter::length_crc) return best;
+    return with_delimiter(best, at, at_end);
+}
+
+bool Framer::expects_answer_at(std::size_t at, std::span<const std::uint8_t> head) const {
+    const std::string& channel = channels_[piece_of(at).channel];
+    if (!channel.empty() && !options_.request_channel.empty()) {
+        return channel != options_.request_channel;
+    }
+    const Nanos at_end_time = byte_end(at);
+    if (!awaits_answer(head, at_end_time)) return false;
+    // The same request sent again (a master's retry) is not an answer, unless answers to
+    // this function repeat the request anyway.
+    const auto& req = options_.expectation->awaited(at_end_time)->request;
+    return options_.rules->answer_is_echo(head[0], head[1]) || req.size() > bytes_.size() - at ||
+           !std::equal(req.begin(), req.end(), head.begin());
+}
+
+Framer::Attempt Framer::with_delimiter(Attempt frame, std::size_t at, bool at_end) const {
+    const std::size_t end = at + frame.length;
+    if (followed_by_gap(end, at_end)) {
+        frame.delimiter = Delimiter::gap;
+    } else if (end == bytes_.size()) {
+        frame.delimiter = Delimiter::end_of_input;
+    } else {
+        frame.delimiter = Delimiter::length_crc;
+    }
+    return frame;
+}
+
+bool Framer::followed_by_gap(std::size_t end, bool at_end) const {
+    return end == bytes_.size() ? at_end : gap_before(end);
+}
+
+Framer::Search Framer::search_length(std::size_t at, bool at_end, bool confirm) const {
+    // CRC over each possible length, bounded by the next gap where there is timing. By
+    // chance one length in 65536 passes, so a hit must also be followed by a silence,
+    // the end of the input, or another frame: random bytes rarely manage both.
+    Search result;
+    const std::size_t avail = bytes_.size() - at;
+    const auto head = std::span(bytes_).subspan(at, std::min(avail, kMaxAdu));
+    const std::size_t bound = std::min(next_gap(at) - at, head.size());
+    if (bound < kMinAdu) {
+        result.pending = !at_end && bound == avail;
+        return result;
+    }
+    // Whether a frame of n bytes whose CRC checks ends the search.
+    auto ends_search = [&](std::size_t n) {
+        const Follows follows = confirm ? what_follows(at + n, at_end) : Follows::boundary;
+        // Without silences to bound it (a raw dump) the search may reach across real
+        // frames, and the one length in 65536 that passes by chance is then often one at
+        // which another frame starts. A frame of known length inside says that is what
+        // happened: no frame starts here, and a longer length would hold it too.
+        if (follows == Follows::boundary && confirm && holds_known_frame(at, n)) return true;
+        if (follows == Follows::boundary) result.length = n;
+        if (follows == Follows::unknown_yet) result.pending = true;
+        return follows != Follows::nothing;
+    };
+    // Through garbage every byte starts a search over the same bytes: the index answers
+    // them all from one pass over the bytes (crc_end_index.hpp).
+    if (crc_ends_.find(bytes_, at, kMinAdu, bound, ends_search)) return result;
+    result.pending = !at_end && bound == avail && avail < kMaxAdu;
+    return result;
+}
+
+bool Framer::holds_known_frame(std::size_t at, std::size_t n) const {
+    for (std::size_t inner = at + 1; inner + kMinAdu <= at + n; ++inner) {
+        const auto head = std::span(bytes_).subspan(inner, at + n - inner);
+        const FrameLengths lengths = options_.rules->frame_lengths(head);
+        for (const Role role : {Role::request, Role::response}) {
+            const FrameLength& length = lengths.of(role);
+            if (length.fixed_within(head.size()) &&
+                check_crc(head.first(length.bytes)).status == CrcStatus::ok) {
+                return true;
+            }
+        }
+    }
+    return false;
+}
+
+Framer::Follows Framer::what_follows(std::size_t end, bool at_end) const {
+    if (end == bytes_.size()) return at_end ? Follows::boundary : Follows::unknown_yet;
+    if (gap_before(end)) return Follows::boundary;
+    const std::size_t avail = bytes_.size() - end;
+    if (avail < 2) return at_end ? Follows::nothing : Follows::unknown_yet;
+    const auto head = std::span(bytes_).subspan(end, std::min(avail, kMaxAdu));
+    bool unknown_yet = false;
+    const FrameLengths lengths = options_.rules->frame_lengths(head);
+    for (const Role role : {Role::request, Role::response}) {
+        const FrameLength& length = lengths.of(role);
+        if (length.kind == FrameLength::Kind::fixed && length.bytes >= kMinAdu) {
+            if (length.bytes > avail) {
+                unknown_yet = unknown_yet || !at_end;
+            } else if (check_crc(head.first(length.bytes)).status != CrcStatus::bad) {
+                return Follows::boundary;
+            }
+        } else if (length.kind == FrameLength::Kind::need_more) {
+            unknown_yet = unknown_yet || (!at_end && head.size() < kMaxAdu);
+        } else if (length.kind == FrameLength::Kind::search) {
+            const Search next = search_length(end, at_end, false);
+            if (next.length != 0) return Follows::boundary;
+            unknown_yet = unknown_yet || next.pending;
+        }
+    }
+    return unknown_yet ? Follows::unknown_yet : Follows::nothing;
+}
+
+void Framer::decide(bool at_end) {
+    while (pos_ < bytes_.size()) {
+        // The last attempt here waits for more bytes than have come: nothing can change
+        // before they have (slow lines hand frames over in many small chunks).
+        if (!at_end && base_ + pos_ == waiting_at_ && bytes_.size() - pos_ < waiting_for_) break;
+        // Through garbage that comes a byte at a time, the position stays put while the
+        // scan for the next frame waits ahead of it (scan_hint_): it was tried once, not at
+        // every byte.
+        if (at_end || scan_hint_ <= pos_) {
+            const Attempt here = attempt_at(pos_, at_end);
+            if (here.outcome == Outcome::need_more) {
+                waiting_at_ = base_ + pos_;
+                waiting_for_ = here.wanted;
+                break;
+            }
+            if (here.outcome == Outcome::frame) {
+                if (here.delimiter == Delimiter::crc_search) {
+                    const Note searched{note_id::unknown_length, "length found by CRC"};
+                    emit(pos_, here.length, RecordClass::frame, here.reading, here.delimiter,
+                         here.crc, &searched);
+                } else {
+                    emit(pos_, here.length, RecordClass::frame, here.reading, here.delimiter,
+                         here.crc);
+                }
+                continue;
+            }
+        }
+
+        // No frame starts here: find where the next one does.
+        std::size_t resync = std::max(scan_hint_, pos_ + 1);
+        bool waiting = false;
+        for (; resync < bytes_.size(); ++resync) {
+            const Outcome outcome = attempt_at(resync, at_end).outcome;
+            if (outcome == Outcome::frame) break;
+            if (outcome == Outcome::need_more) {
+                waiting = true;
+                break;
+            }
+        }
+        if (waiting) {
+            // Long garbage must not grow the buffer without end: what lies a whole ADU
+            // before the undecided position can no longer be part of a frame.
+            if (resync - pos_ > 16 * kMaxAdu) classify_unframed(pos_, resync - kMaxAdu);
+            // After what that emitted, which forgets the hint.
+            scan_hint_ = resync;
+            break;
+        }
+        classify_unframed(pos_, resync);
+    }
+
+    // What is decided goes once it is all decided, or in batches (a front erase each):
+    // 64 KiB of bytes, or 4,096 chunks, whose channel names are kept with them.
+    if (pos_ == bytes_.size() || pos_ > (1U << 16) || (pieces_.size() > 4096 && pos_ > 0)) {
+        const auto drop = static_cast<std::ptrdiff_t>(pos_);
+        bytes_.erase(bytes_.begin(), bytes_.begin() + drop);
+        crc_ends_.clear();
+        base_ += pos_;
+        // Chunks wholly before the new start go; the one the start falls in stays.
+        std::size_t keep = 0;
+        while (keep + 1 < pieces_.size() && pieces_[keep + 1].first <= base_) ++keep;
+        if (bytes_.empty()) keep = pieces_.size();
+        pieces_.erase(pieces_.begin(), pieces_.begin() + static_cast<std::ptrdiff_t>(keep));
+        std::erase_if(frame_gaps_, [&](std::uint64_t index) { return index < base_; });
+        piece_hint_ = 0;
+        std::erase_if(char_errors_, [&](std::size_t index) { return index < pos_; });
+        for (std::size_t& index : char_errors_) index -= pos_;
+        std::erase_if(time_jumps_, [&](const auto& jump) { return jump.first < pos_; });
+        for (auto& jump : time_jumps_) jump.first -= pos_;
+        scan_hint_ = scan_hint_ > pos_ ? scan_hint_ - pos_ : 0;
+        pos_ = 0;
+    }
+}
+
+bool Framer::awaits_answer(std::span<const std::uint8_t> head, Nanos at) const {
+    if (options_.expectation == nullptr || head.size() < 2) return false;
+    const AwaitedAnswer* awaited = options_.expectation->awaited(at);
+    return awaited != nullptr && awaited->slave == head[0] &&
+           awaited->function == (head[1] & 0x7FU);
+}
+
+Reading Framer::reading_by_shape(std::span<const std::uint8_t> frame, Nanos at,
+                                 bool any_length_fits_search) const {
+    if (frame.size() < 2) return Reading::unknown;
+    bool fits[2] = {false, false};
+    const FrameLengths lengths = options_.rules->frame_lengths(frame);
+    for (const Role role : {Role::request, Role::response}) {
+        const FrameLength& length = lengths.of(role);
+        fits[role == Role::response] =
+            (length.kind == FrameLength::Kind::fixed && length.bytes == frame.size()) ||
+            (any_length_fits_search && length.kind == FrameLength::Kind::search);
+    }
+    const bool prefer_response = awaits_answer(frame, at);
+    if (fits[0] && fits[1]) {
+        return prefer_response ? reading_for(Role::response, frame[1]) : Reading::request;
+    }
+    if (fits[0]) return Reading::request;
+    if (fits[1]) return reading_for(Role::response, frame[1]);
+    return Reading::unknown;
+}
+
+void Framer::classify_unframed(std::size_t from, std::size_t to) {
+    const bool timed = has_time(byte_end(from));
+    std::size_t start = from;
+    while (start < to) {
+        const std::size_t end = gap_after(start, to);
+        const std::size_t n = end - start;
+        const auto piece = std::span(bytes_).subspan(start, n);
+        const bool bounded_by_gaps =
+            timed && gap_before(start) && (end == bytes_.size() || gap_before(end));
+
+        if (n >= kMinAdu) {
+            const CrcCheck crc = check_crc(piece);
+            const Reading shape = reading_by_shape(piece, byte_end(start), false);
+            if (crc.status != CrcStatus::bad) {
+                // CRC right but the length disagrees with the function code.
+                const Note malformed{note_id::malformed, "length does not fit its function code"};
+                emit(start, n, RecordClass::frame, shape, Delimiter::gap, crc, &malformed);
+                start = end;
+                continue;
+            }
+            if (shape != Reading::unknown) {
+                emit(start, n, RecordClass::invalid, shape,
+                     bounded_by_gaps ? Delimiter::gap : Delimiter::length_crc, crc);
+                start = end;
+                continue;
+            }
+        }
+        if (n >= 3 && bounded_by_gaps && emit_if_truncated(start, n)) {
+            start = end;
+            continue;
+        }
+        emit(start, n, RecordClass::noise, Reading::unknown, Delimiter::gap, {});
+        start = end;
+    }
+}
+
+bool Framer::emit_if_truncated(std::size_t at, std::size_t n) {
+    // A broken-off transmission: too short for the length its header implies.
+    const auto piece = std::span(bytes_).subspan(at, n);
+    const bool answer_first = awaits_answer(piece, byte_end(at));
+    const FrameLengths lengths = options_.rules->frame_lengths(piece);
+    for (const Role role : {answer_first ? Role::response : Role::request,
+                            answer_first ? Role::request : Role::response}) {
+        const FrameLength& length = lengths.of(role);
+        if (length.kind == FrameLength::Kind::fixed && length.bytes > n) {
+            const Note truncated{note_id::truncated,
+                                 fmt::format("cut short: {} of {} bytes", n, length.bytes)};
+            emit(at, n, RecordClass::invalid, reading_for(role, piece[1]), Delimiter::gap, {},
+                 &truncated);
+            return true;
+        }
+    }
+    return false;
+}
+
+void Framer::emit_chunk_as_frame(const Chunk& chunk) {
+    Frame& frame = frame_;
+    frame.notes.clear();
+    frame.start = kNoTime;
+    frame.silence_before = kNoTime;
+    frame.bytes = chunk.bytes;
+    const Nanos duration = static_cast<Nanos>(chunk.bytes.size()) * char_time_;
+    frame.end = chunk.time;
+    if (has_time(chunk.time)) {
+        if (options_.chunk_time_is_start) {
+            frame.start = chunk.time;
+            frame.end = chunk.time + duration;
+        } else {
+            frame.start = chunk.time - duration;
+        }
+    }
+    if (has_time(frame.start) && has_time(last_end_) && frame.start >= last_end_) {
+        frame.silence_before = frame.start - last_end_;
+    }
+    if (has_time(frame.end)) last_end_ = frame.end;
+    frame.channel = chunk.channel;
+    frame.source_line = chunk.source_line;
+    frame.delimiter = Delimiter::line;
+    frame.crc = check_crc(frame.bytes);
+    frame.reading = reading_by_shape(frame.bytes, chunk.time, true);
+    frame.cls = frame.crc.status == CrcStatus::bad ? RecordClass::invalid : RecordClass::frame;
+    if (frame.bytes.size() < kMinAdu) frame.cls = RecordClass::invalid;
+    add_crc_note(frame);
+    if (frame.reading == Reading::unknown && frame.cls == RecordClass::frame) {
+        frame.notes.push_back({note_id::malformed, "length does not fit its function code"});
+    }
+    emit_(frame);
+}
+
+void Framer::emit(std::size_t at, std::size_t length, RecordClass cls, Reading reading,
+                  Delimiter delimiter, CrcCheck crc, const Note* note) {
+    Frame& frame = frame_;
+    // Emptied and refilled rather than assigned: assign copies in two pieces (over the old
+    // bytes, then past them) whenever the frame is longer than the last.
+    frame.bytes.clear();
+    frame.bytes.insert(frame.bytes.end(), bytes_.begin() + static_cast<std::ptrdiff_t>(at),
+                       bytes_.begin() + static_cast<std::ptrdiff_t>(at + length));
+    frame.notes.clear();
+    frame.cls = cls;
+    frame.reading = reading;
+    frame.delimiter = delimiter;
+    frame.crc = crc;
+    // The piece is looked up once: a frame's fields are asked of it several times.
+    const Piece& piece = piece_of(at);
+    const Nanos first_end = byte_end(piece, at);
+    frame.start = has_time(first_end) ? first_end - char_time_ : kNoTime;
+    // Most frames lie within one chunk, whose piece is at hand.
+    const bool within_piece = base_ + at + length <= piece.end;
+    frame.end = within_piece ? byte_end(piece, at + length - 1) : byte_end(at + length - 1);
+    const Nanos gap = gap_at(piece, at);
+    frame.silence_before = is_measured(gap) ? gap : kNoTime;
+    const std::string& channel = channels_[piece.channel];
+    if (frame.channel != channel) frame.channel = channel;
+    frame.source_line = piece.line;
+    // Noise and frames cut short come without a CRC check, so without a CRC note.
+    add_crc_note(frame);
+    if (note != nullptr) frame.notes.push_back(*note);
+    // Silences are measured only before a chunk's first byte: a frame in the middle of
+    // one chunk has none to note.
+    if (cls != RecordClass::noise && (piece.first == base_ + at || !within_piece)) {
+        add_timing_notes(frame, piece, at, length);
+    }
+    if (!char_errors_.empty()) add_char_error_note(frame, at, length);
+    if (!time_jumps_.empty()) add_time_jump_notes(frame, at, length);
+    pos_ = at + length;
+    scan_hint_ = 0;
+    emit_(frame);
+}
+
+void Framer::add_time_jump_notes(Frame& frame, std::size_t at, std::size_t length) const {
+    for (const auto& [index, back] : within_frame(time_jumps_, at, length, &TimeJump::first)) {
+        frame.notes.push_back(
+            {note_id::time_backwards, fmt::format("the input's time goes back {:.3f} s here",
+                                                  static_cast<double>(back) / 1e9)});
+    }
+}
+
+void Framer::add_char_error_note(Frame& frame, std::size_t at, std::size_t length) const {
+    std::string hit;
+    for (const std::size_t index : within_frame(char_errors_, at, length)) {
+        hit += (hit.empty() ? "" : ", ") + std::to_string(index - at + 1);
+    }
+    if (!hit.empty()) {
+        frame.notes.push_back({note_id::char_error, "parity/framing error on byte " + hit});
+    }
+}
+
+void Framer::add_timing_notes(Frame& frame, const Piece& first, std::size_t at,
+                              std::size_t length) const {
+    // Only per-byte timing (one byte per chunk) measures real silences; a chunk of many
+    // bytes only says when the adapter handed them over.
+    auto measured = [](const Piece& p) { return p.exact && is_measured(p.gap); };
+    if (first.first == base_ + at && measured(first) && first.gap < t35_) {
+        frame.notes.push_back(
+            {note_id::short_gap,
+             fmt::format("{:.1f} character times of silence before it (< t3.5)",
+                         static_cast<double>(first.gap) / static_cast<double>(char_time_))});
+    }
+    // Silences inside: before the first byte of every later chunk within the frame.
+    Nanos widest = 0;
+    for (auto i = static_cast<std::size_t>(&first - pieces_.data()) + 1;
+         i < pieces_.size() && pieces_[i].first < base_ + at + length; ++i) {
+        if (measured(pieces_[i])) widest = std::max(widest, pieces_[i].gap);
+    }
+    if (widest > t15_) {
+        frame.notes.push_back({note_id::gap_inside,
+                               fmt::format("silence of {:.2f} ms inside (> t1.5)", in_ms(widest))});
+    }
+}
+
+}  // namespace rtuscope

@@ -1,0 +1,50 @@
+// Stage 1, sources: everything that delivers bytes (capture files, raw dumps, hex logs,
+// later a tty or pcap) delivers Chunks through the ChunkSource interface.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "framing/line_settings.hpp"
+#include "util/result.hpp"
+#include "util/time.hpp"
+
+namespace rtuscope {
+
+// Bytes that arrived together: what one read() on a tty returns, one line of a capture
+// file, one byte of a logic-analyser export, one line of a hex log.
+struct Chunk {
+    Nanos time = kNoTime;  // when the LAST byte of the chunk was received
+    std::string channel;   // "@NAME" of a two-port tap; empty when there is one line
+    std::vector<std::uint8_t> bytes;
+    int source_line = 0;  // line in the input file, 0 when the source has no lines
+    // Offsets of bytes the UART received with a parity or framing error (a live tty with
+    // PARMRK); such a byte is kept as it came, and the frame it lands in says so.
+    std::vector<std::uint32_t> char_errors;
+};
+
+// What a source knows about itself once its header (if any) has been read.
+struct SourceInfo {
+    std::string name;                  // file name for messages, "-" for stdin
+    std::string format;                // "capture", "raw", "hex"
+    std::optional<LineSettings> line;  // from the capture header, if it has one
+    bool timed = false;                // chunks carry times
+    bool chunk_is_frame = false;       // hex logs: each line is exactly one frame
+    bool chunk_time_is_start = false;  // pcap: a chunk's time is its first byte's start
+};
+
+class ChunkSource {
+  public:
+    virtual ~ChunkSource() = default;
+    [[nodiscard]] virtual const SourceInfo& info() const = 0;
+    // Fills `out` and returns true, returns false at the end of input, or an Error
+    // (file:line:col) for input that cannot be read on.
+    virtual Result<bool> next(Chunk& out) = 0;
+    // Remarks worth telling the user once the input is read, e.g. the lines a hex
+    // reader skipped. Empty for most sources.
+    [[nodiscard]] virtual std::vector<std::string> remarks() const { return {}; }
+};
+
+}  // namespace rtuscope

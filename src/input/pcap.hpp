@@ -1,0 +1,49 @@
+// pcap in: pcap and pcapng files (libpcap) whose packets hold Modbus RTU frames: exported
+// PDUs (link type 252, as `--pcap` writes them: output/pcap_writer.hpp), RTAC serial (250),
+// DLT_USER0-15 (147-162), and Modbus RTU over TCP or UDP in Ethernet, Linux cooked or raw
+// IP captures. The link types and ports below are shared with the writer.
+#pragma once
+
+#include <cstdint>
+#include <cstdio>
+#include <memory>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "input/chunk.hpp"
+#include "util/result.hpp"
+
+namespace rtuscope {
+
+// Link types (www.tcpdump.org/linktypes.html) the reader understands.
+inline constexpr int kLinktypeUpperPdu = 252;    // LINKTYPE_WIRESHARK_UPPER_PDU
+inline constexpr int kLinktypeRtacSerial = 250;  // LINKTYPE_RTAC_SERIAL
+// The port standing for the slaves: requests go to it, answers come from it, in the
+// file written and in the files read.
+inline constexpr std::uint16_t kModbusPort = 502;
+// The master's side of the written "connection".
+inline constexpr std::uint16_t kMasterPort = 49152;
+
+// A source over a pcap or pcapng file. Each packet holding a Modbus RTU frame becomes one
+// Chunk (chunk_is_frame): its time is the packet's timestamp, the frame's start
+// (chunk_time_is_start), its channel "master" when
+// the packet went to port 502, "slave" when it came from port 502, empty otherwise.
+// Packets that carry no frame (other protocols, empty TCP segments, exported PDUs for
+// other dissectors) are skipped and counted in remarks(). A file cut short or corrupt
+// gives its packets up to the bad one, then an error naming the packet.
+Result<std::unique_ptr<ChunkSource>> open_pcap_source(const std::string& path);
+
+// The same over a file in memory; `name` is used in messages.
+Result<std::unique_ptr<ChunkSource>> pcap_source_from_memory(std::string content, std::string name);
+
+// The same over `head` (bytes already read from the stream, e.g. by format detection)
+// followed by the rest of `rest` (may be null). Owns `rest` when `close_rest`.
+Result<std::unique_ptr<ChunkSource>> pcap_source_from_stream(std::string head, std::FILE* rest,
+                                                             bool close_rest, std::string name);
+
+// Whether `head` starts like a pcap or pcapng file (by its magic numbers).
+bool looks_like_pcap(std::string_view head);
+
+}  // namespace rtuscope

@@ -1,0 +1,57 @@
+// Stage 1 for live lines: a serial port (or two, for a full-duplex tap) read passively.
+// The port is opened read-only and never written to; bytes are timestamped as they are
+// read, with a monotonic clock mapped to wall time.
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "input/chunk.hpp"
+#include "framing/line_settings.hpp"
+#include "util/result.hpp"
+#include "util/time.hpp"
+
+namespace rtuscope {
+
+struct TtyOptions {
+    // One port, or two (a full-duplex tap: one port per direction, merged by time; each
+    // chunk carries its port's channel name).
+    std::vector<std::string> ports;
+    // Channel names of the ports' chunks; default "master" (the first port, which hears
+    // the master's requests) and "slave" (the second, the answers): see
+    // FramerOptions::request_channel.
+    std::vector<std::string> channels;
+    LineSettings line;
+    std::optional<Nanos> duration;            // stop after this long (--seconds)
+    const std::atomic<bool>* stop = nullptr;  // set by SIGINT/SIGTERM: stop cleanly
+    Nanos tick = 5'000'000;                   // idle ticks while nothing arrives
+};
+
+// Opens and configures the ports (raw, the line's speed and character format, parity
+// and framing errors marked, low latency where the driver allows). Errors are one line
+// that names the fix where there is one (a missing port, the dialout group).
+// `notices`, when given, receives what the user should be told once (a driver that
+// refuses low-latency mode).
+Result<std::unique_ptr<ChunkSource>> open_tty_source(const TtyOptions& options,
+                                                     std::vector<std::string>* notices = nullptr);
+
+// Unescapes what a tty with PARMRK delivers: 0xFF 0xFF is a data byte 0xFF; 0xFF 0x00 X
+// is byte X received with a parity or framing error (X = 0 also for a break). The state
+// carries an escape that a read() split in two.
+class ParmrkDecoder {
+  public:
+    // Appends the data bytes of `in` to `out` and the offsets (in `out`) of bytes that
+    // came with an error to `errors`.
+    void feed(std::span<const std::uint8_t> in, std::vector<std::uint8_t>& out,
+              std::vector<std::uint32_t>& errors);
+
+  private:
+    int pending_ = 0;  // 0xFF bytes of an escape seen so far: 0, 1 (FF) or 2 (FF 00)
+};
+
+}  // namespace rtuscope

@@ -1,0 +1,114 @@
+// Stage 5, sinks: annotated text for people, the per-frame CSV of DESIGN.md for machines.
+#pragma once
+
+#include <algorithm>
+#include <cstdio>
+#include <memory>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "pipeline.hpp"
+
+namespace rtuscope {
+
+// tshark's habit: absolute by default, relative to the first record, delta to previous.
+enum class TimeFormat : std::uint8_t { absolute, relative, delta };
+
+struct TextOptions {
+    bool color = false;
+    bool hex = false;  // the raw bytes of every record on a line of their own
+    TimeFormat time_format = TimeFormat::absolute;
+};
+
+std::unique_ptr<RecordSink> make_text_sink(std::FILE* out, TextOptions options);
+std::unique_ptr<RecordSink> make_csv_sink(std::FILE* out);
+// One row per register value (records without a profile give none).
+std::unique_ptr<RecordSink> make_values_csv_sink(std::FILE* out);
+// One JSON object per record (JSON Lines): the per-frame CSV's fields, the decoded
+// fields and the register values; schema in README.md.
+std::unique_ptr<RecordSink> make_jsonl_sink(std::FILE* out);
+
+// Output to `file`, and what stdio holds for it handed to the system. A write the file
+// refuses (a full disk, an I/O error) throws std::system_error ("cannot write the output:
+// ..."), which ends the run: decoding on into an output that is lost would end in a
+// truncated file and exit status 0.
+void write_output(std::FILE* file, std::string_view text);
+void flush_output(std::FILE* file);
+
+// Shared by the sinks, each also as append_*: sinks build every line in one reused
+// string, since a temporary string per field was a large part of a decode's time.
+// "01 03 00 00" (spaced) or "01030000".
+std::string hex_bytes(std::span<const std::uint8_t> bytes, bool spaced);
+void append_hex(std::string& out, std::span<const std::uint8_t> bytes, bool spaced);
+// Seconds with 6 decimals in the input's timebase ("1763798400.022360"); empty if none.
+std::string seconds_text(Nanos time);
+void append_seconds(std::string& out, Nanos time);
+// An RFC 4180 field: quoted when it holds a comma, a quote or a line break.
+std::string csv_field(std::string_view text);
+void append_csv_field(std::string& out, std::string_view text);
+// A JSON string literal, quotes included (RFC 8259 escapes); bytes that are not UTF-8
+// become U+FFFD, as JSON must be UTF-8.
+std::string json_string(std::string_view text);
+void append_json_string(std::string& out, std::string_view text);
+// "3 registers not in the profile".
+void append_unlisted_registers_text(std::string& out, std::size_t count);
+
+// The `flags` and `notes` columns of a record: its notes, then its register values'
+// anomalies ("name: text"; so that filtering by flag finds a value out of range without
+// the values CSV), then the registers the profile does not list, only counted;
+// `ids` lists each id once, `texts` every text. Built in strings reused record after
+// record (a list of strings per record was a large part of decoding with profiles);
+// `write(out, item)` writes one item (as it is for the CSV, as a JSON string for JSONL),
+// after the separator when it is not the first.
+class FlagColumns {
+  public:
+    template <typename Write>
+    void build(const Record& record, std::string_view id_separator, std::string_view text_separator,
+               Write write) {
+        ids.clear();
+        texts.clear();
+        seen_.clear();
+        auto add = [&](std::string_view id, std::string_view text) {
+            if (std::find(seen_.begin(), seen_.end(), id) == seen_.end()) {
+                seen_.push_back(id);
+                if (!ids.empty()) ids += id_separator;
+                write(ids, id);
+            }
+            if (!texts.empty()) texts += text_separator;
+            write(texts, text);
+        };
+        for (const Note& note : record.notes) add(note.id, note.text);
+        std::size_t unlisted = 0;
+        for (const DecodedValue& v : record.values) {
+            for (const Note& note : v.notes) {
+                if (std::string_view(note.id) == note_id::value_unlisted) {
+                    ++unlisted;
+                    continue;
+                }
+                named_ = v.name;
+                named_ += ": ";
+                named_ += note.text;
+                add(note.id, named_);
+            }
+        }
+        if (unlisted > 0) {
+            named_.clear();
+            append_unlisted_registers_text(named_, unlisted);
+            add(note_id::value_unlisted, named_);
+        }
+    }
+
+    std::string ids;
+    std::string texts;
+
+  private:
+    std::vector<std::string_view> seen_;  // the ids so far
+    std::string named_;                   // a value's note with its name
+};
+
+// The one-line description of a record, as in the CSV `summary` column.
+std::string record_summary(const Record& record);
+void append_summary(std::string& out, const Record& record);
+
+}  // namespace rtuscope

@@ -1,0 +1,281 @@
+// Annotated text for people: one line per record, aligned columns, problems marked on
+// the line where they happen, a summary at the end.
+#include <fmt/color.h>
+#include <fmt/format.h>
+
+#include <span>
+
+#include "output/sinks.hpp"
+#include "util/text_append.hpp"
+
+namespace rtuscope {
+namespace {
+
+// Appended as string_views: a `+= "literal"` counts the literal's length with strlen
+// at run time.
+using namespace std::string_view_literals;
+
+// Timestamps from 2001 on are taken as absolute Unix time and shown as time of day (UTC:
+// output must not depend on the machine's zone); smaller ones are relative seconds.
+constexpr Nanos kAbsoluteFrom = 1'000'000'000 * kNanosPerSecond;
+constexpr std::size_t kNoiseBytesShown = 16;
+
+// "08:00:00.001667"
+void append_time_of_day(std::string& out, Nanos time) {
+    const std::uint64_t micros = (static_cast<std::uint64_t>(time) + 500) / 1000;
+    const std::uint64_t seconds = micros / 1'000'000 % 86'400;
+    append_with(out, 15, [&](char* p) {
+        p = write_digits(p, seconds / 3600, 2);
+        *p++ = ':';
+        p = write_digits(p, seconds / 60 % 60, 2);
+        *p++ = ':';
+        p = write_digits(p, seconds % 60, 2);
+        *p++ = '.';
+        return write_digits(p, micros % 1'000'000, 6);
+    });
+}
+
+const char* arrow(const Record& r) {
+    switch (r.kind) {
+        case Kind::request:
+        case Kind::broadcast:
+            return "▶";
+        case Kind::response:
+        case Kind::exception:
+            return "◀";
+        case Kind::invalid:
+            if (r.frame.reading == Reading::request) return "▶";
+            if (r.frame.reading != Reading::unknown) return "◀";
+            return "?";
+        case Kind::unknown:
+        case Kind::noise:
+            return "?";
+    }
+    return "?";
+}
+
+class TextSink final : public RecordSink {
+  public:
+    TextSink(std::FILE* out, TextOptions options) : out_(out), options_(options) {}
+
+    void begin(const SessionInfo& s) override {
+        const LineSettings& line = s.line;
+        fmt::print(out_.file(), "{}: {} input, {} {} (t1.5 {:.2f} ms, t3.5 {:.2f} ms){}\n",
+                   s.source.name, s.source.format, line.baud, line.format(),
+                   static_cast<double>(line.t15()) / 1e6, static_cast<double>(line.t35()) / 1e6,
+                   s.source.timed ? "" : ", no timing");
+        if (!s.devices.empty()) fmt::print(out_.file(), "devices: {}\n", s.devices);
+    }
+
+    void record(const Record& r) override {
+        std::string& line = out_.line();
+        time_text_.clear();
+        append_time_column(time_text_, r.frame.start);
+        append_padded(line, r.number, 5);
+        line += ' ';
+        append_padded(line, time_text_, 15, true);
+        line += "  "sv;
+        const bool framed = r.kind != Kind::noise;
+        if (framed) {
+            append_padded(line, r.frame.slave(), 3);
+            line += ' ';
+        } else {
+            line += "    "sv;
+        }
+        append_painted(line, arrow(r), colour_of(r));
+        line += ' ';
+
+        std::string_view function;
+        std::string_view summary;
+        if (framed) {
+            function = r.decoded.function_name;
+            summary = r.decoded.summary;
+        } else {
+            noise_function_.clear();
+            append_summary(noise_function_, r);
+            function = noise_function_;
+            const auto shown = std::min(r.frame.bytes.size(), kNoiseBytesShown);
+            noise_summary_.clear();
+            append_hex(noise_summary_, std::span(r.frame.bytes).first(shown), true);
+            if (shown < r.frame.bytes.size()) noise_summary_ += " ..."sv;
+            summary = noise_summary_;
+        }
+        column_.clear();
+        append_padded(column_, function, 30, false);
+        append_painted(line, column_, colour_of(r));
+        line += ' ';
+        line += summary;
+        if (r.kind == Kind::broadcast) line += "  (broadcast, no answer expected)"sv;
+        if (has_time(r.latency)) {
+            append_with(line, kMaxMillisChars + kMaxUintChars + 16, [&](char* p) {
+                p = write_text(p, "  ");
+                p = write_millis(p, r.latency, 2);
+                p = write_text(p, " ms after #");
+                return write_uint(p, r.request_number);
+            });
+        } else if (r.request_number != 0) {
+            line += "  answers #"sv;
+            append_uint(line, r.request_number);
+        }
+        append_notes(line, r.notes);
+        // Trailing spaces come from padding a short last column.
+        while (!line.empty() && line.back() == ' ') line.pop_back();
+        line += '\n';
+        if (options_.hex && framed) {
+            line.append(28, ' ');
+            append_hex(line, r.frame.bytes, true);
+            line += '\n';
+        }
+        append_values(line, r.values);
+        out_.record_done();
+        if (has_time(r.frame.start)) previous_ = r.frame.start;
+    }
+
+    void flush() override {
+        out_.flush();
+    }
+
+    void end(const Totals& t, const std::vector<std::string>& remarks) override {
+        out_.send();
+        std::FILE* file = out_.file();
+        fmt::print(file,
+                   "-- {} records, {} bytes: {} requests, {} answers, {} exceptions, "
+                   "{} broadcasts, {} unknown, {} invalid, {} noise bytes in {} runs\n",
+                   t.records, t.bytes, t.requests, t.responses, t.exceptions, t.broadcasts,
+                   t.unknown, t.invalid, t.noise_bytes, t.noise_runs);
+        fmt::print(file,
+                   "-- CRC: {} bad, {} swapped; {} requests without answer; "
+                   "{} answers without request\n",
+                   t.crc_bad, t.crc_swapped, t.unanswered, t.unsolicited);
+        for (const std::string& remark : remarks) fmt::print(file, "-- note: {}\n", remark);
+        flush_output(file);
+    }
+
+  private:
+    // One line per value under its frame; registers the profile does not list are
+    // gathered into runs, as devices often fill unused ranges with zeros.
+    void append_values(std::string& out, std::span<const DecodedValue> values) {
+        constexpr std::string_view kIndent = "                            ";
+        for (std::size_t i = 0; i < values.size();) {
+            const DecodedValue& v = values[i];
+            if (v.name.empty()) {
+                std::size_t end = i;
+                bool all_zero = true;
+                while (end < values.size() && values[end].name.empty()) {
+                    all_zero = all_zero && values[end].value == "0";
+                    ++end;
+                }
+                const std::size_t n = end - i;
+                out += kIndent;
+                append_hex4(out, v.address);
+                if (n > 1) {
+                    out += ".."sv;
+                    append_hex4(out, values[end - 1].address);
+                }
+                out += " not in the profile: "sv;
+                if (all_zero && n > 1) {
+                    append_uint(out, n);
+                    out += " registers, all 0"sv;
+                } else {
+                    for (std::size_t k = i; k < end; ++k) {
+                        if (k > i) out += ' ';
+                        out += values[k].raw;
+                    }
+                }
+                out += '\n';
+                i = end;
+                continue;
+            }
+            out += kIndent;
+            append_padded(out, v.name, 16, false);
+            out += " = "sv;
+            out += v.value.empty() ? "?"sv : std::string_view(v.value);
+            if (!v.unit.empty() && !v.value.empty()) {
+                out += ' ';
+                out += v.unit;
+            }
+            out += " (raw "sv;
+            out += v.raw;
+            out += ')';
+            append_notes(out, v.notes);
+            out += '\n';
+            ++i;
+        }
+    }
+
+    void append_time_column(std::string& out, Nanos time) {
+        if (!has_time(time)) {
+            out += '-';
+            return;
+        }
+        if (!has_time(first_)) first_ = time;
+        switch (options_.time_format) {
+            case TimeFormat::absolute:
+                if (time >= kAbsoluteFrom) {
+                    append_time_of_day(out, time);
+                } else {
+                    append_seconds(out, time);
+                }
+                return;
+            case TimeFormat::relative:
+                append_seconds(out, time - first_);
+                return;
+            case TimeFormat::delta:
+                append_seconds(out, has_time(previous_) ? time - previous_ : 0);
+                return;
+        }
+    }
+
+    static fmt::terminal_color colour_of(const Record& r) {
+        switch (r.kind) {
+            case Kind::response:
+                return fmt::terminal_color::cyan;
+            case Kind::exception:
+                return fmt::terminal_color::yellow;
+            case Kind::invalid:
+            case Kind::noise:
+                return fmt::terminal_color::red;
+            default:
+                return fmt::terminal_color::white;
+        }
+    }
+
+    // A frame's or a value's notes at the end of its line: "  ! first; second".
+    void append_notes(std::string& out, std::span<const Note> notes) {
+        if (notes.empty()) return;
+        notes_text_ = "! ";
+        for (std::size_t i = 0; i < notes.size(); ++i) {
+            if (i > 0) notes_text_ += "; "sv;
+            notes_text_ += notes[i].text;
+        }
+        out += "  "sv;
+        append_painted(out, notes_text_, fmt::terminal_color::yellow);
+    }
+
+    void append_painted(std::string& out, std::string_view text, fmt::terminal_color colour) const {
+        if (!options_.color || colour == fmt::terminal_color::white) {
+            out += text;
+        } else {
+            fmt::format_to(std::back_inserter(out), "{}", fmt::styled(text, fmt::fg(colour)));
+        }
+    }
+
+    BlockOutput out_;
+    TextOptions options_;
+    // Pieces of a line, reused.
+    std::string time_text_;
+    std::string column_;
+    std::string noise_function_;
+    std::string noise_summary_;
+    std::string notes_text_;
+    Nanos first_ = kNoTime;
+    Nanos previous_ = kNoTime;
+};
+
+}  // namespace
+
+std::unique_ptr<RecordSink> make_text_sink(std::FILE* out, TextOptions options) {
+    return std::make_unique<TextSink>(out, options);
+}
+
+}  // namespace rtuscope

@@ -1,0 +1,238 @@
+#include "pairing/transactions.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+
+namespace rtuscope {
+
+std::string_view to_string(Kind kind) {
+    switch (kind) {
+        case Kind::request:
+            return "request";
+        case Kind::response:
+            return "response";
+        case Kind::exception:
+            return "exception";
+        case Kind::broadcast:
+            return "broadcast";
+        case Kind::unknown:
+            return "unknown";
+        case Kind::invalid:
+            return "invalid";
+        case Kind::noise:
+            return "noise";
+    }
+    return "";
+}
+
+void Record::clear() {
+    number = 0;
+    kind = Kind::noise;
+    request_number = 0;
+    latency = kNoTime;
+    request.clear();
+    notes.clear();
+    decoded.clear();
+    profile = nullptr;
+    values.clear();
+}
+
+namespace {
+
+// A slot keeps its record's buffers for a later record: records are neither allocated nor
+// built anew per frame. Ordinary traffic uses the first few slots (a request, its answer,
+// a noise run between them); only a wait (frames held behind an awaited request, up to
+// 4,096) reaches further, and those slots give everything back once emitted, or each would
+// keep the largest record it ever carried: the values of a 2,000-coil write with a
+// profile are ~500 KB. The first slots keep all but the room of a huge frame (a pcap
+// packet can be 256 KB, a hex line 512 KB) and of its summary (three characters a byte
+// for a function rtuscope does not know).
+constexpr std::size_t kSlotsKeepingBuffers = 4;
+
+void give_back_buffers(Record& slot, std::size_t index) {
+    if (index >= kSlotsKeepingBuffers) {
+        // A swap: a string assigned an empty one (`slot = Record{}`) keeps its room.
+        Record emptied;
+        std::swap(slot, emptied);
+        return;
+    }
+    constexpr std::size_t kKeptCapacity = 4096;
+    if (slot.frame.bytes.capacity() > kKeptCapacity) {
+        std::vector<std::uint8_t>().swap(slot.frame.bytes);
+    }
+    if (slot.request.capacity() > kKeptCapacity) std::vector<std::uint8_t>().swap(slot.request);
+    if (slot.decoded.summary.capacity() > kKeptCapacity) std::string().swap(slot.decoded.summary);
+}
+
+}  // namespace
+
+Transactions::Transactions(TransactionOptions options, Emit emit)
+    : options_(options), emit_(std::move(emit)) {}
+
+const AwaitedAnswer* Transactions::awaited(Nanos at) const {
+    if (!awaiting_) return nullptr;
+    if (has_time(at) && has_time(awaited_end_) && at - awaited_end_ > options_.timeout) {
+        return nullptr;
+    }
+    return &awaited_;
+}
+
+void Transactions::give_up_on_request(std::string_view why) {
+    if (!awaiting_) return;
+    Record& request = held(*awaiting_);
+    std::string text(why);
+    if (!options_.rules->answers_errors(request.frame.slave())) {
+        text += " (this device answers errors with silence)";
+    }
+    request.notes.push_back({note_id::no_answer, std::move(text)});
+    awaiting_.reset();
+    release();
+}
+
+// Everything before the awaited request, or everything when none is awaited, is final.
+void Transactions::release() {
+    const std::size_t keep_from = awaiting_ ? *awaiting_ : count_;
+    for (std::size_t i = 0; i < keep_from; ++i) {
+        emit_(std::move(slots_[head_]));
+        give_back_buffers(slots_[head_], head_);
+        ++head_;
+        --count_;
+    }
+    if (awaiting_) awaiting_ = 0;
+}
+
+Record& Transactions::next_slot() {
+    // The held records (none, or an awaited request and what came after it) move back to
+    // the first slots, so that ordinary traffic keeps reusing those: after a wait, a run of
+    // unanswered requests (each one holding only itself) would otherwise step through every
+    // slot the wait had grown. Only an awaited request is ever left behind released
+    // records, so this moves one record at most. Swaps keep each record's buffers: the
+    // awaited request's bytes stay where `awaited_` sees them.
+    if (head_ != 0) {
+        for (std::size_t i = 0; i < count_; ++i) std::swap(slots_[i], slots_[head_ + i]);
+        head_ = 0;
+    }
+    if (count_ == slots_.size()) {
+        std::vector<Record> bigger(std::max<std::size_t>(16, 2 * slots_.size()));
+        for (std::size_t i = 0; i < count_; ++i) bigger[i] = std::move(slots_[i]);
+        slots_ = std::move(bigger);
+    }
+    Record& record = slots_[count_];
+    record.clear();
+    return record;
+}
+
+void Transactions::push(Frame& frame) {
+    // Filled in place; held (counted) at the end. Releasing older records on the way
+    // leaves the slot where it is: head_ + count_ does not change.
+    Record& record = next_slot();
+    record.number = next_number_++;
+    record.frame.take(frame);
+    // The frame's notes open the record's; the record's (empty) list takes their place.
+    record.notes.swap(record.frame.notes);
+    const Frame& f = record.frame;
+
+    // A request that has waited past the timeout by the time this frame starts.
+    tick(f.start);
+
+    const bool answer_reading = f.reading == Reading::response || f.reading == Reading::exception;
+    const bool matches_awaited =
+        awaiting_ && f.slave() == awaited_.slave && (f.function() & 0x7FU) == awaited_.function;
+
+    switch (f.cls) {
+        case RecordClass::noise:
+            record.kind = Kind::noise;
+            break;
+        case RecordClass::invalid:
+            record.kind = Kind::invalid;
+            break;
+        case RecordClass::frame:
+            if (f.reading == Reading::request) {
+                record.kind =
+                    options_.rules->is_broadcast(f.slave()) ? Kind::broadcast : Kind::request;
+            } else if (answer_reading) {
+                record.kind = f.reading == Reading::exception ? Kind::exception : Kind::response;
+            } else if (matches_awaited) {
+                record.kind = (f.function() & 0x80U) ? Kind::exception : Kind::response;
+            } else {
+                record.kind = Kind::unknown;
+            }
+            break;
+    }
+
+    // A frame seen with a bad CRC may still have reached its slave intact (the damage can
+    // be at the tap), so invalid frames take part in pairing by their reading.
+    const bool invalid = record.kind == Kind::invalid;
+    const bool is_answer = record.kind == Kind::response || record.kind == Kind::exception ||
+                           (invalid && answer_reading);
+    const bool is_request = record.kind == Kind::request || record.kind == Kind::broadcast ||
+                            (invalid && f.reading == Reading::request);
+    if (is_answer) {
+        if (matches_awaited) {
+            Record& request = held(*awaiting_);
+            record.request_number = request.number;
+            record.request = request.frame.bytes;
+            // Inside a chunk the answer's start is a guess: no turnaround then.
+            if (has_time(f.silence_before) && has_time(request.frame.end)) {
+                record.latency = f.start - request.frame.end;
+            }
+            awaiting_.reset();
+            answered_ = Answered{f.slave(), static_cast<std::uint8_t>(f.function() & 0x7FU),
+                                 record.request_number, record.number};
+        } else if (answered_ && f.slave() == answered_->slave &&
+                   (f.function() & 0x7FU) == answered_->function) {
+            record.request_number = answered_->request_number;
+            record.notes.push_back(
+                {note_id::duplicate_answer,
+                 fmt::format("second answer to #{} (after #{}): two devices on address {}?",
+                             answered_->request_number, answered_->answer_number, f.slave())});
+        } else if (!invalid) {
+            record.notes.push_back({note_id::unsolicited, "answer with no request"});
+        }
+    } else if (is_request) {
+        answered_.reset();
+        // One master, one transaction at a time: a new request ends the wait.
+        give_up_on_request("no answer before the next request");
+    }
+
+    if (record.kind == Kind::exception && !options_.rules->answers_errors(f.slave())) {
+        record.notes.push_back(
+            {note_id::unexpected_exception,
+             "this device is said to answer errors with silence, not exceptions"});
+    }
+    const bool awaits = (record.kind == Kind::request ||
+                         (invalid && is_request && !options_.rules->is_broadcast(f.slave()))) &&
+                        options_.rules->expects_answer(f.slave(), f.function());
+    ++count_;
+    if (awaits) {
+        awaiting_ = count_ - 1;
+        const Frame& request = record.frame;
+        awaited_ = {request.slave(), request.function(), request.bytes};
+        awaited_end_ = request.end;
+        bytes_behind_awaited_ = 0;
+    } else if (awaiting_) {
+        bytes_behind_awaited_ += f.bytes.size();
+        if (count_ - *awaiting_ > kMaxFramesAwaiting) {
+            give_up_on_request(fmt::format("no answer within {} frames", kMaxFramesAwaiting));
+        } else if (bytes_behind_awaited_ > kMaxBytesAwaiting) {
+            give_up_on_request(fmt::format("no answer within {} bytes", kMaxBytesAwaiting));
+        }
+    }
+    release();
+}
+
+void Transactions::tick(Nanos now) {
+    if (awaiting_ && has_time(now) && has_time(awaited_end_) &&
+        now - awaited_end_ > options_.timeout) {
+        give_up_on_request(
+            fmt::format("no answer within {:g} s", static_cast<double>(options_.timeout) / 1e9));
+    }
+}
+
+void Transactions::finish() {
+    give_up_on_request("no answer before the end of the input");
+    release();
+}
+
+}  // namespace rtuscope

@@ -1,0 +1,116 @@
+// Stage 3, transactions: decides what each frame is (request, answer, exception,
+// broadcast), pairs each answer with its request, measures the turnaround, and reports
+// requests that got no answer. Records leave in stream order, numbered from 1; a request
+// is held back until its fate is known (answered, or not within the timeout).
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "decode/decoder.hpp"
+#include "framing/expectation.hpp"
+#include "framing/frame.hpp"
+#include "framing/protocol_rules.hpp"
+#include "profiles/values.hpp"
+
+namespace rtuscope {
+
+enum class Kind : std::uint8_t {
+    request,
+    response,
+    exception,
+    broadcast,
+    unknown,  // a valid frame whose role is unclear
+    invalid,  // bad CRC or cut short
+    noise,
+};
+
+std::string_view to_string(Kind kind);
+
+struct Record {
+    std::uint64_t number = 0;  // 1-based, stream order
+    Frame frame;
+    Kind kind = Kind::noise;
+    std::uint64_t request_number = 0;   // answers: the request they answer; 0 if none
+    Nanos latency = kNoTime;            // answers: end of request to start of answer
+    std::vector<std::uint8_t> request;  // answers: the request frame, for decoding
+    Notes notes;                        // everything noticed, frame notes first
+    DecodedPdu decoded;                 // filled by the decoder stage
+    const Profile* profile = nullptr;   // the device's profile, when the bus map has one
+    ReusedList<DecodedValue> values;    // its register values in the device's words
+
+    // Empties every field but keeps the buffers: records are reused, one per frame
+    // would otherwise cost a dozen allocations.
+    void clear();
+};
+
+// Frames, and their bytes, held back behind an awaited request, at most. A Modbus answer
+// follows its request at once, so one this far behind is none; and where nothing else
+// bounds the wait (a raw dump has no times, --timeout may be long) a request followed by
+// millions of other slaves' answers held them all (1.4 GB for a 14 MB dump), and 4,096
+// frames of a pcap or hex log can be 256 KB each.
+inline constexpr std::size_t kMaxFramesAwaiting = 4096;
+inline constexpr std::size_t kMaxBytesAwaiting = std::size_t{1} << 20;
+
+struct TransactionOptions {
+    Nanos timeout = kNanosPerSecond;  // an answer later than this is no answer
+    const ProtocolRules* rules = &standard_rules();
+};
+
+class Transactions : public AnswerExpectation {
+  public:
+    // The record is taken back (and reused) once the call returns; move from it only to
+    // keep it.
+    using Emit = std::function<void(Record&&)>;
+
+    Transactions(TransactionOptions options, Emit emit);
+
+    // Takes the frame's contents, leaving an earlier record's frame in their place (a
+    // swap: the framer's frame and the records' reuse each other's buffers, no copy).
+    void push(Frame& frame);
+    // Live input: the time is `now` and nothing came; a request whose timeout has passed
+    // is given up on now rather than when the next frame arrives.
+    void tick(Nanos now);
+    void finish();
+
+    [[nodiscard]] const AwaitedAnswer* awaited(Nanos at) const override;
+
+  private:
+    // Called for every request, usually with nothing awaited: `why` becomes a string
+    // only when a note is written.
+    void give_up_on_request(std::string_view why);
+    void release();
+    // The i-th held record, oldest first (i <= count_).
+    Record& held(std::size_t i) { return slots_[head_ + i]; }
+    // The slot after the held records, emptied; it joins them when count_ grows.
+    Record& next_slot();
+
+    TransactionOptions options_;
+    Emit emit_;
+    std::uint64_t next_number_ = 1;
+    // Records held back, in slots [head_, head_ + count_): a slot is reused (its buffers
+    // too) once its record is emitted, so records are neither allocated nor moved per
+    // frame. head_ is back at 0 whenever a frame comes (next_slot).
+    std::vector<Record> slots_;
+    std::size_t head_ = 0;   // the oldest held record's slot
+    std::size_t count_ = 0;  // how many are held; the first is the awaited request, if any
+    std::optional<std::size_t> awaiting_;  // index (from the oldest) of the awaited request
+    AwaitedAnswer awaited_;
+    Nanos awaited_end_ = kNoTime;
+    std::size_t bytes_behind_awaited_ = 0;  // of the records held after it
+    // The request answered last, until the next request: a second answer to it means
+    // two devices share an address.
+    struct Answered {
+        std::uint8_t slave = 0;
+        std::uint8_t function = 0;
+        std::uint64_t request_number = 0;
+        std::uint64_t answer_number = 0;
+    };
+    std::optional<Answered> answered_;
+};
+
+}  // namespace rtuscope

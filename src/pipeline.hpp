@@ -1,0 +1,79 @@
+// The whole pipeline, source to sink: what `decode` (and later `sniff`) runs.
+//   source --chunks--> framer --frames--> transactions --records--> decoder --> sink
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "profiles/bus.hpp"
+#include "input/chunk.hpp"
+#include "framing/line_settings.hpp"
+#include "framing/protocol_rules.hpp"
+#include "util/result.hpp"
+#include "pairing/transactions.hpp"
+
+namespace rtuscope {
+
+struct PipelineOptions {
+    std::optional<std::uint32_t> baud;   // overrides the capture header
+    std::optional<LineSettings> format;  // data/parity/stop bits; overrides the header
+    Nanos timeout = kNanosPerSecond;
+    const Bus* bus = nullptr;  // which slave is which device; none: standard decoding only
+    // Live input (a tty): every record is flushed to the sink's output as soon as it is
+    // decided, and what is buffered is decided once the line has been quiet for t3.5
+    // plus this margin. The margin covers USB adapters, which hand over bytes in batches
+    // up to 16 ms apart even while a frame is still arriving.
+    bool live = false;
+    Nanos idle_margin = 20'000'000;
+};
+
+// What a sink is told before the first record.
+struct SessionInfo {
+    SourceInfo source;
+    LineSettings line;    // in effect after header and options
+    std::string devices;  // the bus map, "zb-uvi485 on 1, 2; pdu485 on 3"; empty without
+};
+
+// Counts for the closing summary.
+struct Totals {
+    std::uint64_t records = 0;
+    std::uint64_t requests = 0;
+    std::uint64_t responses = 0;
+    std::uint64_t exceptions = 0;
+    std::uint64_t broadcasts = 0;
+    std::uint64_t unknown = 0;
+    std::uint64_t invalid = 0;
+    std::uint64_t crc_bad = 0;
+    std::uint64_t crc_swapped = 0;
+    std::uint64_t unanswered = 0;
+    std::uint64_t unsolicited = 0;
+    std::uint64_t noise_runs = 0;
+    std::uint64_t noise_bytes = 0;
+    std::uint64_t bytes = 0;
+};
+
+class RecordSink {
+  public:
+    virtual ~RecordSink() = default;
+    virtual void begin(const SessionInfo& session) = 0;
+    virtual void record(const Record& record) = 0;
+    // `remarks`: what the source wants the user told (e.g. skipped lines).
+    virtual void end(const Totals& totals, const std::vector<std::string>& remarks) = 0;
+    // Live output: push what has been written to its reader now.
+    virtual void flush() {}
+};
+
+// Decodes everything the source delivers into the sink. On a source error, everything
+// read before it is still decoded and delivered, then the error is returned. A chunk
+// with no bytes but a time is a live source saying that nothing came until then.
+// `totals`, when given, receives the closing counts.
+Status run_pipeline(ChunkSource& source, const PipelineOptions& options, RecordSink& sink,
+                    Totals* totals = nullptr);
+
+// The decoder stage for one record: the standard PDU, or the device's own function code,
+// and the register values in the device's words when the bus map has its profile.
+void decode_record(Record& record, const Bus* bus);
+
+}  // namespace rtuscope

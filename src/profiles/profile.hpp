@@ -1,0 +1,129 @@
+// Device profiles: what one device model's registers mean (names, types, scales, units)
+// and how it bends the Modbus standard (its own function codes, broadcast address,
+// silence instead of exception answers). Profiles are data files (TOML, see
+// docs/profiles.md); this is their in-memory form.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <optional>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "framing/line_settings.hpp"
+#include "util/result.hpp"
+
+namespace rtuscope {
+
+enum class ValueType : std::uint8_t { u16, i16, u32, i32, f32, bits, enumeration, string };
+
+// Which register of a 32-bit value comes first on the wire.
+enum class WordOrder : std::uint8_t { high_first, low_first };
+
+enum class Access : std::uint8_t { read, write, read_write };
+
+// Where in the file a definition stands, for messages (1-based; 0 = unknown).
+struct SourcePos {
+    int line = 0;
+    int column = 0;
+};
+
+// The scale `decimals = N` gives a register: 10^-N for N in 0-9 (what a profile may
+// give), computed once; 0, which no scale is, for any other N.
+double scale_for_decimals(int decimals);
+
+// Whether a profile table holds single bits ("coil", "discrete") rather than registers.
+bool is_bit_table(std::string_view table);
+
+struct Register {
+    std::string table = "holding";  // "holding", "input", "coil", "discrete" or a custom
+                                    // table of a non-standard function code
+    std::uint16_t address = 0;
+    std::string name;  // unique in the profile (after formula expansion)
+    ValueType type = ValueType::u16;
+    WordOrder word_order = WordOrder::high_first;  // u32, i32, f32
+    std::uint16_t length = 1;  // registers: 1 for 16-bit, 2 for 32-bit, n for strings
+    double scale = 1.0;        // value = raw * scale (decimals d gives scale 10^-d)
+    int decimals = -1;         // digits to print; -1: as many as the scale implies
+    std::string unit;
+    Access access = Access::read;
+    std::optional<double> min;  // valid range, in scaled units
+    std::optional<double> max;
+    std::string description;
+    std::map<std::uint32_t, std::string> labels;  // enum values, or bit number -> bit name
+    std::map<std::uint32_t, std::string> writes;  // raw values with a special meaning when
+                                                  // written (0xAABB = "clear energy")
+    SourcePos pos;
+};
+
+// A function code the device uses differently from the standard (or not at all in the
+// standard). Lengths are whole ADUs: address + function + data + CRC.
+struct FunctionOverride {
+    std::uint8_t code = 0;
+    std::string name;                // "Set correction coefficient"
+    std::size_t request_length = 0;  // 0: as the standard says
+    enum class Answer : std::uint8_t { standard, echo, none } answer = Answer::standard;
+    // Layout of the request data, so that its value can be explained:
+    // "address_value" (like FC06: a 16-bit address then a 16-bit value), or "" (raw).
+    std::string layout;
+    std::string table = "holding";  // the registers `address_value` refers to
+    SourcePos pos;
+};
+
+struct Profile {
+    std::string name;                  // "zb-uvi485": what --device and the bus file use
+    std::string title;                 // "ZB-UVI485 UV-intensity transmitter (Chongqing Zibo)"
+    std::string source;                // where the facts come from (manual, version)
+    std::string file;                  // file it was read from ("<bundled>/zb-uvi485.toml")
+    std::optional<LineSettings> line;  // the device's default line settings
+    std::uint8_t first_address = 1;    // valid slave addresses
+    std::uint8_t last_address = 247;
+    std::optional<std::uint8_t> broadcast;  // non-standard broadcast address (0xFF)
+    bool exception_answers = true;          // false: errors are answered with silence
+    std::uint16_t max_registers = 125;      // per read request
+    std::vector<FunctionOverride> functions;
+    std::vector<Register> registers;  // sorted by table, then address
+
+    [[nodiscard]] const FunctionOverride* function(std::uint8_t code) const;
+    // The register that starts at `address` in `table`, or nullptr.
+    [[nodiscard]] const Register* register_at(const std::string& table,
+                                              std::uint16_t address) const;
+    // The register whose addresses include `address` (the second half of a 32-bit value
+    // too), or nullptr.
+    [[nodiscard]] const Register* register_covering(const std::string& table,
+                                                    std::uint16_t address) const;
+    // The registers of one table, in address order: a block is of one table, so it is
+    // looked up once per block, not once per value.
+    [[nodiscard]] std::span<const Register> registers_in(std::string_view table) const;
+    // register_covering within what registers_in gave.
+    [[nodiscard]] static const Register* covering(std::span<const Register> table,
+                                                  std::uint16_t address);
+};
+
+// One mistake in a profile file, with its position.
+struct ProfileProblem {
+    std::string file;
+    int line = 0;
+    int column = 0;
+    std::string message;
+    [[nodiscard]] std::string to_string() const;  // "FILE:LINE:COL: message"
+};
+
+// Reads and validates one profile. Every mistake is reported (not just the first):
+// on any problem the result is an error whose message lists them one per line.
+struct ProfileLoad {
+    std::optional<Profile> profile;
+    std::vector<ProfileProblem> problems;
+};
+ProfileLoad load_profile_text(const std::string& text, const std::string& file_name);
+ProfileLoad load_profile_file(const std::string& path);
+
+// The four seed devices, built into the binary.
+const std::vector<Profile>& bundled_profiles();
+// For tests: what is wrong with the bundled files (nothing, in a good build).
+std::vector<ProfileProblem> bundled_profile_problems();
+std::size_t bundled_profile_file_count();
+
+}  // namespace rtuscope

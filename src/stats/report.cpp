@@ -1,0 +1,387 @@
+// The statistics printed as text, CSV or JSON lines (docs/formats.md), row by row.
+#include "stats/report.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <functional>
+#include <iterator>
+#include <string_view>
+
+#include "decode/decoder.hpp"
+#include "output/sinks.hpp"
+#include "util/io_block.hpp"
+
+namespace rtuscope {
+namespace {
+
+// One row of figures, whatever the output format; nullopt where not known.
+struct RowFigures {
+    std::optional<BusStats::Key> key;  // nullopt: every slave and function
+    const FunctionStats* counts = nullptr;
+    std::optional<Nanos> p50, p95, p99, max;
+    std::optional<Nanos> cycle_median, cycle_max;
+    const DurationCounts* cycles = nullptr;  // of the row's poll, if it has one
+};
+
+// The row of one slave and function, or the bus-wide row (`key` nullopt, `s` the sums),
+// whose cycle is that of the bus's most frequent poll, as in the bus block.
+RowFigures row_of(const BusStats& stats, std::optional<BusStats::Key> key, const FunctionStats& s) {
+    RowFigures f{key, &s, {}, {}, {}, {}, {}, {}, nullptr};
+    f.p50 = s.turnarounds.percentile(50);
+    f.p95 = s.turnarounds.percentile(95);
+    f.p99 = s.turnarounds.percentile(99);
+    f.max = s.turnarounds.percentile(100);
+    if (const auto* poll = stats.main_poll(key); poll != nullptr) {
+        f.cycle_median = poll->second.cycles.percentile(50);
+        f.cycle_max = poll->second.cycles.percentile(100);
+        f.cycles = &poll->second.cycles;
+    }
+    return f;
+}
+
+RowFigures bus_row(const BusStats& stats) {
+    return row_of(stats, std::nullopt, stats.all());
+}
+
+// Every slave and function's row, then the bus-wide one, each made as it is printed:
+// noise in a long capture can fill the table (256 x 128 rows), too many to hold at once.
+template <class Each>
+void for_each_row(const BusStats& stats, Each each) {
+    for (const auto& [key, s] : stats.functions()) each(row_of(stats, key, s));
+    each(bus_row(stats));
+}
+
+// The statistics' text, handed to `send` in pieces of about 64 KiB at line ends rather
+// than held whole: a full table is megabytes of text (issue #6: peak RSS below 32 MiB
+// whatever the capture).
+class Pieces {
+  public:
+    explicit Pieces(const std::function<void(std::string_view)>& send) : send_(send) {}
+    Pieces(const Pieces&) = delete;
+    Pieces& operator=(const Pieces&) = delete;
+
+    std::string& text() { return text_; }
+    void line_done() {
+        if (text_.size() >= kIoBlockBytes) send();
+    }
+    void send() {
+        if (text_.empty()) return;
+        send_(text_);
+        text_.clear();
+    }
+
+  private:
+    const std::function<void(std::string_view)>& send_;
+    std::string text_;
+};
+
+std::string ms(std::optional<Nanos> t, int decimals, std::string_view unknown) {
+    if (!t) return std::string(unknown);
+    return fmt::format("{:.{}f}", static_cast<double>(*t) / 1e6, decimals);
+}
+
+// A percentile in the text output: "~" marks one counted in bins, up to a bin below the
+// exact figure (DurationCounts).
+std::string ms_text(std::optional<Nanos> t, Nanos bin) {
+    std::string out = ms(t, 2, "-");
+    return t && bin != 0 ? "~" + out : out;
+}
+
+// The CSV's and JSONL's bin width of percentiles (DurationCounts): 0 when exact,
+// `unknown` when there are no values.
+std::string bin_ms(const DurationCounts* values, std::string_view unknown) {
+    if (values == nullptr || values->empty()) return std::string(unknown);
+    return ms(values->bin_width(), 3, unknown);
+}
+
+// The widest bin behind any percentile the text output shows (0: all exact).
+Nanos widest_bin(const BusStats& stats) {
+    Nanos widest = stats.all().turnarounds.bin_width();
+    for (const auto& [key, s] : stats.functions()) {
+        widest = std::max(widest, s.turnarounds.bin_width());
+    }
+    for (const auto& [key, p] : stats.polls()) widest = std::max(widest, p.cycles.bin_width());
+    return widest;
+}
+
+// "0x0000 x2" for the reads, whose first 4 data bytes are address and quantity; the
+// bytes in hex for anything else.
+std::string poll_data_text(const PollKey& key) {
+    if (key.function >= 1 && key.function <= 4 && key.size == 4) {
+        return fmt::format("0x{:02X}{:02X} x{}", key.data[0], key.data[1],
+                           key.data[2] * 256U + key.data[3]);
+    }
+    return hex_bytes(std::span(key.data.data(), key.size), true);
+}
+
+// Columns padded to their widest cell; `right` marks the numeric ones. `rows(emit)` emits
+// the rows, header first; it runs twice (the widths, then the lines), so that no table is
+// held whole.
+template <class Rows>
+void table(Pieces& out, const std::vector<bool>& right, Rows rows) {
+    std::vector<std::size_t> widths(right.size(), 0);
+    rows([&](const std::vector<std::string>& row) {
+        for (std::size_t i = 0; i < row.size(); ++i) widths[i] = std::max(widths[i], row[i].size());
+    });
+    rows([&](const std::vector<std::string>& row) {
+        std::string& line = out.text();
+        const std::size_t start = line.size();
+        line += "  ";
+        for (std::size_t i = 0; i < row.size(); ++i) {
+            if (i > 0) line += "  ";
+            line += right[i] ? fmt::format("{:>{}}", row[i], widths[i])
+                             : fmt::format("{:<{}}", row[i], widths[i]);
+        }
+        while (line.size() > start && line.back() == ' ') line.pop_back();
+        line += '\n';
+        out.line_done();
+    });
+}
+
+void write_text(const BusStats& stats, const std::vector<std::string>& remarks, Pieces& pieces) {
+    const SessionInfo& session = stats.session();
+    const BusFigures& bus = stats.bus();
+    std::string& out = pieces.text();
+    if (!session.source.name.empty()) {
+        out += fmt::format("{}: {} input, {} {}\n", session.source.name, session.source.format,
+                           session.line.baud, session.line.format());
+    }
+    if (!session.devices.empty()) out += fmt::format("devices: {}\n", session.devices);
+    out += fmt::format(
+        "bus: {} frames, {} bytes; {} invalid, {} unknown; {} noise bytes in {} runs\n", bus.frames,
+        bus.bytes, bus.invalid, bus.unknown, bus.noise_bytes, bus.noise_runs);
+    if (stats.timed()) {
+        out += fmt::format("duration: {:.3f} s, utilisation {:.1f} % ({} bytes of {:.3f} ms)\n",
+                           static_cast<double>(*stats.duration()) / 1e9, *stats.utilisation(),
+                           bus.bytes, static_cast<double>(session.line.char_time()) / 1e6);
+        const auto* poll = stats.main_poll(std::nullopt);
+        if (poll != nullptr && !poll->second.cycles.empty()) {
+            out += fmt::format(
+                "poll cycle: {} ms median, {} ms max (slave {} function {:02X} {}, "
+                "{} requests)\n",
+                ms_text(poll->second.cycles.percentile(50), poll->second.cycles.bin_width()),
+                ms(poll->second.cycles.percentile(100), 2, "-"), poll->first.slave,
+                poll->first.function, poll_data_text(poll->first), poll->second.requests);
+        } else {
+            out += "poll cycle: no request repeated\n";
+        }
+    } else {
+        out += "no timing: turnaround, utilisation and cycle unknown\n";
+    }
+    for (const std::string& remark : remarks) out += fmt::format("note: {}\n", remark);
+    if (const Nanos widest = widest_bin(stats); widest != 0) {
+        out += fmt::format(
+            "note: ~ marks a percentile counted in bins (more than {} distinct turnarounds in "
+            "a row or cycles of a poll): up to one bin ({} ms at most) below the exact "
+            "figure\n",
+            stats.bins_each(), ms(widest, 3, ""));
+    }
+    if (stats.unlisted_exceptions() != 0) {
+        out += fmt::format(
+            "note: {} exceptions not listed by code, beyond {} distinct slave/function/code "
+            "(they still count in the rows)\n",
+            stats.unlisted_exceptions(), BusStats::kMaxExceptionCodes);
+    }
+    if (stats.forgotten_polls() != 0) {
+        out += fmt::format(
+            "note: {} rare polls forgotten to keep to {} distinct requests (their requests "
+            "still count in the rows)\n",
+            stats.forgotten_polls(), BusStats::kMaxPolls);
+    }
+
+    // Short headers keep the table within a terminal's width for typical buses; the
+    // legend says what they mean.
+    out +=
+        "\nper slave and function (times in ms; p50..max: turnaround over the n measured "
+        "answers;\ncycle: of the slave's most frequent poll for that function):\n";
+    const auto rows = [&](const auto& emit) {
+        emit({"slave", "fc", "function", "req", "ans", "exc", "crc", "no ans", "bcast", "unsol",
+              "n", "p50", "p95", "p99", "max", "cycle", "cyc max"});
+        for_each_row(stats, [&](const RowFigures& f) {
+            const FunctionStats& c = *f.counts;
+            emit({f.key ? fmt::format("{}", f.key->first) : "all",
+                  f.key ? fmt::format("{:02X}", f.key->second) : "",
+                  f.key ? function_name(f.key->second) : "", fmt::format("{}", c.requests),
+                  fmt::format("{}", c.answers), fmt::format("{}", c.exceptions),
+                  fmt::format("{}", c.crc_errors), fmt::format("{}", c.no_answer),
+                  fmt::format("{}", c.broadcasts), fmt::format("{}", c.unsolicited),
+                  fmt::format("{}", c.turnarounds.size()),
+                  ms_text(f.p50, c.turnarounds.bin_width()),
+                  ms_text(f.p95, c.turnarounds.bin_width()),
+                  ms_text(f.p99, c.turnarounds.bin_width()), ms(f.max, 2, "-"),
+                  ms_text(f.cycle_median, f.cycles != nullptr ? f.cycles->bin_width() : 0),
+                  ms(f.cycle_max, 2, "-")});
+        });
+    };
+    table(pieces,
+          {true, true, false, true, true, true, true, true, true, true, true, true, true, true,
+           true, true, true},
+          rows);
+
+    const auto exceptions = [&](const auto& emit) {
+        emit({"slave", "fc", "code", "exception", "count"});
+        for (const auto& [key, s] : stats.functions()) {
+            for (const auto& [code, n] : s.exception_codes) {
+                const char* name = exception_name(code);
+                emit({fmt::format("{}", key.first), fmt::format("{:02X}", key.second),
+                      fmt::format("{:02X}", code), name != nullptr ? name : "undefined",
+                      fmt::format("{}", n)});
+            }
+        }
+    };
+    const bool any_exception =
+        std::any_of(stats.functions().begin(), stats.functions().end(),
+                    [](const auto& entry) { return !entry.second.exception_codes.empty(); });
+    if (any_exception) {
+        out += "\nexceptions:\n";
+        table(pieces, {true, true, true, false, true}, exceptions);
+    }
+
+    // Only polls that repeat have a cycle; a bus with varying writes would otherwise
+    // list every one of them.
+    const auto repeats = [](const auto& entry) { return !entry.second.cycles.empty(); };
+    if (stats.timed() && std::any_of(stats.polls().begin(), stats.polls().end(), repeats)) {
+        const auto polls = [&](const auto& emit) {
+            emit({"slave", "fc", "data", "requests", "cycle median", "cycle max"});
+            for (const auto& [key, p] : stats.polls()) {
+                if (p.cycles.empty()) continue;
+                emit({fmt::format("{}", key.slave), fmt::format("{:02X}", key.function),
+                      poll_data_text(key), fmt::format("{}", p.requests),
+                      ms_text(p.cycles.percentile(50), p.cycles.bin_width()),
+                      ms(p.cycles.percentile(100), 2, "-")});
+            }
+        };
+        out += "\npolls (times in ms):\n";
+        table(pieces, {true, true, false, true, true, true}, polls);
+    }
+}
+
+void write_csv(const BusStats& stats, Pieces& pieces) {
+    std::string& out = pieces.text();
+    out +=
+        "slave,function,requests,answers,exceptions,crc_errors,no_answer,broadcasts,"
+        "unsolicited,turnarounds,turnaround_p50_ms,turnaround_p95_ms,turnaround_p99_ms,"
+        "turnaround_max_ms,cycle_median_ms,cycle_max_ms,turnaround_bin_ms,cycle_bin_ms\n";
+    for_each_row(stats, [&](const RowFigures& f) {
+        const FunctionStats& c = *f.counts;
+        const std::string slave = f.key ? fmt::format("{}", f.key->first) : "all";
+        const std::string function = f.key ? fmt::format("{}", f.key->second) : "all";
+        out += fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n", slave,
+                           function, c.requests, c.answers, c.exceptions, c.crc_errors, c.no_answer,
+                           c.broadcasts, c.unsolicited, c.turnarounds.size(), ms(f.p50, 3, ""),
+                           ms(f.p95, 3, ""), ms(f.p99, 3, ""), ms(f.max, 3, ""),
+                           ms(f.cycle_median, 3, ""), ms(f.cycle_max, 3, ""),
+                           bin_ms(&c.turnarounds, ""), bin_ms(f.cycles, ""));
+        pieces.line_done();
+    });
+}
+
+// The members of a row's JSON object, without the braces.
+std::string json_row(const RowFigures& f) {
+    const FunctionStats& c = *f.counts;
+    std::string codes;
+    for (const auto& [code, n] : c.exception_codes) {
+        codes += fmt::format("{}\"{}\":{}", codes.empty() ? "" : ",", code, n);
+    }
+    std::string out;
+    if (f.key) out += fmt::format("\"slave\":{},\"function\":{},", f.key->first, f.key->second);
+    out += fmt::format(
+        "\"requests\":{},\"answers\":{},\"exceptions\":{},\"exception_codes\":{{{}}},"
+        "\"crc_errors\":{},\"no_answer\":{},\"broadcasts\":{},\"unsolicited\":{},"
+        "\"turnarounds\":{},\"turnaround_p50_ms\":{},\"turnaround_p95_ms\":{},"
+        "\"turnaround_p99_ms\":{},\"turnaround_max_ms\":{},\"cycle_median_ms\":{},"
+        "\"cycle_max_ms\":{},\"turnaround_bin_ms\":{},\"cycle_bin_ms\":{}",
+        c.requests, c.answers, c.exceptions, codes, c.crc_errors, c.no_answer, c.broadcasts,
+        c.unsolicited, c.turnarounds.size(), ms(f.p50, 3, "null"), ms(f.p95, 3, "null"),
+        ms(f.p99, 3, "null"), ms(f.max, 3, "null"), ms(f.cycle_median, 3, "null"),
+        ms(f.cycle_max, 3, "null"), bin_ms(&c.turnarounds, "null"), bin_ms(f.cycles, "null"));
+    return out;
+}
+
+void write_jsonl(const BusStats& stats, Pieces& pieces) {
+    const SessionInfo& session = stats.session();
+    const BusFigures& bus = stats.bus();
+    std::string poll = "null";
+    if (const auto* p = stats.main_poll(std::nullopt); p != nullptr) {
+        poll = fmt::format(
+            "{{\"slave\":{},\"function\":{},\"data\":{},\"requests\":{},\"cycle_median_ms\":{},"
+            "\"cycle_max_ms\":{},\"cycle_bin_ms\":{}}}",
+            p->first.slave, p->first.function,
+            json_string(hex_bytes(std::span(p->first.data.data(), p->first.size), false)),
+            p->second.requests, ms(p->second.cycles.percentile(50), 3, "null"),
+            ms(p->second.cycles.percentile(100), 3, "null"), bin_ms(&p->second.cycles, "null"));
+    }
+    const std::optional<double> utilisation = stats.utilisation();
+    pieces.text() += fmt::format(
+        "{{\"bus\":{{\"source\":{},\"input_format\":{},\"line\":{},\"devices\":{},"
+        "\"timed\":{},\"duration_s\":{},\"frames\":{},\"bytes\":{},\"noise_runs\":{},"
+        "\"noise_bytes\":{},\"invalid\":{},\"unknown\":{},\"char_time_ms\":{:.6f},"
+        "\"utilisation_pct\":{},\"poll\":{},\"forgotten_polls\":{},\"unlisted_exceptions\":{},"
+        "\"all\":{{{}}}}}}}\n",
+        json_string(session.source.name), json_string(session.source.format),
+        json_string(fmt::format("{} {}", session.line.baud, session.line.format())),
+        json_string(session.devices), stats.timed() ? "true" : "false",
+        stats.duration() ? fmt::format("{:.6f}", static_cast<double>(*stats.duration()) / 1e9)
+                         : "null",
+        bus.frames, bus.bytes, bus.noise_runs, bus.noise_bytes, bus.invalid, bus.unknown,
+        static_cast<double>(session.line.char_time()) / 1e6,
+        utilisation ? fmt::format("{:.3f}", *utilisation) : "null", poll, stats.forgotten_polls(),
+        stats.unlisted_exceptions(), json_row(bus_row(stats)));
+    for (const auto& [key, s] : stats.functions()) {
+        pieces.text() += fmt::format("{{{}}}\n", json_row(row_of(stats, key, s)));
+        pieces.line_done();
+    }
+}
+
+class StatsSink final : public RecordSink {
+  public:
+    StatsSink(std::FILE* out, StatsFormat format) : out_(out), format_(format) {}
+
+    void begin(const SessionInfo& session) override { stats_.begin(session); }
+    void record(const Record& record) override { stats_.add(record); }
+    void end(const Totals& /*totals*/, const std::vector<std::string>& remarks) override {
+        stats_.finish();
+        write_stats(stats_, format_, remarks,
+                    [this](std::string_view text) { write_output(out_, text); });
+        flush_output(out_);
+    }
+
+  private:
+    std::FILE* out_;
+    StatsFormat format_;
+    BusStats stats_;
+};
+
+}  // namespace
+
+void write_stats(const BusStats& stats, StatsFormat format, const std::vector<std::string>& remarks,
+                 const std::function<void(std::string_view)>& send) {
+    Pieces pieces(send);
+    switch (format) {
+        case StatsFormat::csv:
+            write_csv(stats, pieces);
+            break;
+        case StatsFormat::jsonl:
+            write_jsonl(stats, pieces);
+            break;
+        case StatsFormat::text:
+            write_text(stats, remarks, pieces);
+            break;
+    }
+    pieces.send();
+}
+
+std::string render_stats(const BusStats& stats, StatsFormat format,
+                         const std::vector<std::string>& remarks) {
+    std::string text;
+    write_stats(stats, format, remarks, [&](std::string_view piece) { text += piece; });
+    return text;
+}
+
+std::unique_ptr<RecordSink> make_stats_sink(std::FILE* out, StatsFormat format) {
+    return std::make_unique<StatsSink>(out, format);
+}
+
+}  // namespace rtuscope
+

@@ -1,0 +1,398 @@
+// Writing numbers and bytes as text without format strings or per-character appends. The
+// decoder and the sinks run once per frame; parsing "{}" and calling std::string's
+// out-of-line push_back for every character were a large part of a decode's time.
+// The write_* functions write at `p`, which must have room for their bound, and return
+// the end of what they wrote.
+#pragma once
+
+#include <fmt/compile.h>
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <array>
+#include <cstdint>
+#include <cstdio>
+#include <cstring>
+#include <memory>
+#include <span>
+#include <string>
+#include <string_view>
+
+#include "util/io_block.hpp"
+#include "output/sinks.hpp"
+#include "util/time.hpp"
+
+namespace rtuscope {
+
+inline constexpr std::size_t kMaxUintChars = 20;
+
+// The two digits of 0-99, at 2 * n.
+inline constexpr auto kTwoDigits = [] {
+    std::array<char, 200> pairs{};
+    for (std::size_t n = 0; n < 100; ++n) {
+        pairs[2 * n] = static_cast<char>('0' + n / 10);
+        pairs[2 * n + 1] = static_cast<char>('0' + n % 10);
+    }
+    return pairs;
+}();
+
+inline char* write_uint(char* p, std::uint64_t value) {
+    // Slave addresses, function codes, counts: most numbers written are small, and fmt's
+    // general path cost several times what these two cases do.
+    if (value < 10) {
+        *p = static_cast<char>('0' + value);
+        return p + 1;
+    }
+    if (value < 100) {
+        std::memcpy(p, &kTwoDigits[2 * value], 2);
+        return p + 2;
+    }
+    return fmt::format_to(p, FMT_COMPILE("{}"), value);
+}
+
+// Exactly `digits` digits, zero-padded: the fraction of a time, a clock field. Two digits
+// a step from a table: every record's time has six.
+inline char* write_digits(char* p, std::uint64_t value, int digits) {
+    int i = digits;
+    for (; i >= 2; i -= 2, value /= 100) std::memcpy(p + i - 2, &kTwoDigits[2 * (value % 100)], 2);
+    if (i == 1) p[0] = static_cast<char>('0' + value % 10);
+    return p + digits;
+}
+
+// Short texts (names, kinds) are copied here in at most two overlapping moves: a call to
+// memcpy for a few bytes cost more than the copy, and its size checks mispredicted.
+inline char* write_text(char* p, std::string_view text) {
+    const char* s = text.data();
+    const std::size_t n = text.size();
+    if (n >= 8 && n <= 16) {
+        std::memcpy(p, s, 8);
+        std::memcpy(p + n - 8, s + n - 8, 8);
+    } else if (n >= 4 && n < 8) {
+        std::memcpy(p, s, 4);
+        std::memcpy(p + n - 4, s + n - 4, 4);
+    } else if (n < 4) {
+        for (std::size_t i = 0; i < n; ++i) p[i] = s[i];
+    } else {
+        std::memcpy(p, s, n);
+    }
+    return p + n;
+}
+
+// A byte's two hex digits, at 2 * byte: both digits of a byte come from one table entry
+// (every frame's bytes and every register in a summary are written so).
+inline constexpr auto kHexPairs = [] {
+    constexpr char kDigits[] = "0123456789ABCDEF";
+    std::array<char, 512> pairs{};
+    for (std::size_t b = 0; b < 256; ++b) {
+        pairs[2 * b] = kDigits[b >> 4];
+        pairs[2 * b + 1] = kDigits[b & 0xFU];
+    }
+    return pairs;
+}();
+
+// Two digits per byte, and a space between bytes when `spaced`: at most 3 per byte.
+inline char* write_hex(char* p, std::span<const std::uint8_t> bytes, bool spaced) {
+    for (std::size_t i = 0; i < bytes.size(); ++i) {
+        if (spaced && i > 0) *p++ = ' ';
+        std::memcpy(p, &kHexPairs[2 * std::size_t{bytes[i]}], 2);
+        p += 2;
+    }
+    return p;
+}
+
+// Seconds with 6 decimals, rounded to the microsecond ("1763798400.022360"), nothing
+// without a time; at most 28 characters. Integer arithmetic: no floating point, no locale.
+inline constexpr std::size_t kMaxSecondsChars = 28;
+// With the whole seconds written by `write_whole(p, seconds)`.
+template <class WriteWhole>
+char* write_seconds_with(char* p, Nanos time, WriteWhole write_whole) {
+    if (!has_time(time)) return p;
+    const bool negative = time < 0;
+    const auto magnitude = static_cast<std::uint64_t>(negative ? -(time + 1) + 1 : time);
+    const std::uint64_t micros = (magnitude + 500) / 1000;
+    if (negative) *p++ = '-';
+    p = write_whole(p, micros / 1'000'000);
+    *p++ = '.';
+    return write_digits(p, micros % 1'000'000, 6);
+}
+
+inline char* write_seconds(char* p, Nanos time) {
+    return write_seconds_with(p, time, write_uint);
+}
+
+// write_seconds for a column of times in order: their whole seconds change once in
+// hundreds of records, so their digits are written once and copied after that.
+class SecondsWriter {
+  public:
+    char* write(char* p, Nanos time) {
+        return write_seconds_with(p, time, [this](char* q, std::uint64_t seconds) {
+            if (seconds != seconds_) {
+                seconds_ = seconds;
+                size_ =
+                    static_cast<std::size_t>(write_uint(digits_.data(), seconds) - digits_.data());
+            }
+            return write_text(q, std::string_view(digits_.data(), size_));
+        });
+    }
+
+  private:
+    std::uint64_t seconds_ = ~std::uint64_t{0};
+    std::array<char, kMaxUintChars> digits_{};
+    std::size_t size_ = 0;
+};
+
+// write_uint for a column that counts up (record numbers): the next number is the last
+// one's digits with one added, carried by hand, rather than formatted afresh.
+class CountWriter {
+  public:
+    char* write(char* p, std::uint64_t value) {
+        if (size_ == 0 || value == 0 || value != value_ + 1) {
+            size_ = static_cast<std::size_t>(write_uint(digits_.data(), value) - digits_.data());
+        } else {
+            std::size_t i = size_;
+            while (i > 0 && digits_[i - 1] == '9') digits_[--i] = '0';
+            if (i > 0) {
+                ++digits_[i - 1];
+            } else {  // 99 -> 100
+                digits_[size_++] = '0';
+                digits_[0] = '1';
+            }
+        }
+        value_ = value;
+        return write_text(p, std::string_view(digits_.data(), size_));
+    }
+
+  private:
+    std::uint64_t value_ = 0;
+    std::array<char, kMaxUintChars + 1> digits_{};
+    std::size_t size_ = 0;
+};
+
+// Milliseconds with 2 or 3 decimals, exactly as fmt's "{:.2f}"/"{:.3f}" write ns / 1e6
+// ("12.345", "-0.004"); at most kMaxMillisChars characters. Integer arithmetic, except
+// where the double's own rounding decides: a value halfway between two outputs (and
+// one beyond 18 minutes) is left to fmt.
+inline constexpr std::size_t kMaxMillisChars = 32;
+inline char* write_millis(char* p, Nanos duration, int decimals) {
+    const std::uint64_t unit = decimals == 2 ? 10'000 : 1'000;  // ns per last digit
+    const bool negative = duration < 0;
+    const std::uint64_t magnitude = negative
+                                        ? std::uint64_t{0} - static_cast<std::uint64_t>(duration)
+                                        : static_cast<std::uint64_t>(duration);
+    if (magnitude % unit == unit / 2 || magnitude >= (std::uint64_t{1} << 40)) {
+        return fmt::format_to(p, "{:.{}f}", static_cast<double>(duration) / 1e6, decimals);
+    }
+    const std::uint64_t steps = (magnitude + unit / 2) / unit;
+    const std::uint64_t steps_per_ms = 1'000'000 / unit;
+    if (negative) *p++ = '-';
+    p = write_uint(p, steps / steps_per_ms);
+    *p++ = '.';
+    return write_digits(p, steps % steps_per_ms, decimals);
+}
+
+// The characters that make an RFC 4180 field need quotes.
+inline constexpr auto kCsvSpecial = [] {
+    std::array<bool, 256> special{};
+    special[','] = special['"'] = special['\r'] = special['\n'] = true;
+    return special;
+}();
+
+inline bool is_csv_special(char c) {
+    return kCsvSpecial[static_cast<unsigned char>(c)];
+}
+
+// Whether any of 16 characters is one of them. Compared as one vector (the compiler's
+// vector extension: SSE2 on x86-64, NEON on ARM), not one by one.
+inline bool holds_csv_special(const char* sixteen) {
+    using Block = char __attribute__((vector_size(16)));
+    Block block;
+    std::memcpy(&block, sixteen, sizeof block);
+    const auto hits = (block == ',') | (block == '"') | (block == '\r') | (block == '\n');
+    std::uint64_t halves[2];
+    std::memcpy(halves, &hits, sizeof halves);
+    return (halves[0] | halves[1]) != 0;
+}
+
+// Writes `text` with its quotes doubled (the inside of a quoted field).
+inline char* write_doubling_quotes(char* p, std::string_view text) {
+    for (const char c : text) {
+        if (c == '"') *p++ = '"';
+        *p++ = c;
+    }
+    return p;
+}
+
+// Copies `text` to `p` and moves `p` past it, unless it holds a character that needs
+// quotes: then false, with what was copied left for the caller to overwrite. Copied 16
+// characters a step while they are looked at: every CSV row's summary goes through here,
+// and a check per character cost more than the copy. The last step overlaps the one
+// before rather than going on one character at a time.
+inline bool copy_if_unquoted(char*& p, std::string_view text) {
+    const char* const s = text.data();
+    const std::size_t n = text.size();
+    if (n < 16) {
+        for (std::size_t i = 0; i < n; ++i) {
+            if (is_csv_special(s[i])) return false;
+            p[i] = s[i];
+        }
+        p += n;
+        return true;
+    }
+    for (std::size_t i = 0;; i += 16) {
+        if (i + 16 > n) i = n - 16;
+        if (holds_csv_special(s + i)) return false;
+        std::memcpy(p + i, s + i, 16);
+        if (i + 16 == n) {
+            p += n;
+            return true;
+        }
+    }
+}
+
+// The RFC 4180 field `first` + " " + `second` (just `first` when `second` is empty),
+// without joining the two first: quoted when either holds a comma, a quote or a line
+// break; at most 2 * (both sizes + 1) + 2 characters.
+inline char* write_csv_field(char* p, std::string_view first, std::string_view second) {
+    char* end = p;
+    if (copy_if_unquoted(end, first)) {
+        if (second.empty()) return end;
+        *end++ = ' ';
+        if (copy_if_unquoted(end, second)) return end;
+    }
+    *p++ = '"';
+    p = write_doubling_quotes(p, first);
+    if (!second.empty()) {
+        *p++ = ' ';
+        p = write_doubling_quotes(p, second);
+    }
+    *p++ = '"';
+    return p;
+}
+
+// An RFC 4180 field, quoted when it holds a comma, a quote or a line break; at most
+// 2 * size + 2 characters.
+inline char* write_csv_field(char* p, std::string_view text) {
+    return write_csv_field(p, text, {});
+}
+
+// Appends through one of the writers above: room for `bound` characters, then trimmed.
+template <typename Write>
+void append_with(std::string& out, std::size_t bound, Write write) {
+    const std::size_t at = out.size();
+    out.resize(at + bound);
+    char* const end = write(out.data() + at);
+    out.resize(static_cast<std::size_t>(end - out.data()));
+}
+
+inline void append_uint(std::string& out, std::uint64_t value) {
+    const fmt::format_int text(value);
+    out.append(text.data(), text.size());
+}
+
+// `text` padded with spaces to `width` columns, on the left (right-aligned) or the right,
+// as fmt's "{:>N}" / "{:<N}" pad it. fmt counts columns, not bytes, for non-ASCII text:
+// such text is left to fmt.
+inline void append_padded(std::string& out, std::string_view text, std::size_t width,
+                          bool right_aligned) {
+    const bool ascii = std::all_of(text.begin(), text.end(),
+                                   [](char c) { return static_cast<unsigned char>(c) < 0x80; });
+    if (!ascii) {
+        if (right_aligned) {
+            fmt::format_to(std::back_inserter(out), "{:>{}}", text, width);
+        } else {
+            fmt::format_to(std::back_inserter(out), "{:<{}}", text, width);
+        }
+        return;
+    }
+    const std::size_t padding = width > text.size() ? width - text.size() : 0;
+    if (right_aligned) out.append(padding, ' ');
+    out += text;
+    if (!right_aligned) out.append(padding, ' ');
+}
+
+inline void append_padded(std::string& out, std::uint64_t value, std::size_t width) {
+    const fmt::format_int text(value);
+    append_padded(out, std::string_view(text.data(), text.size()), width, true);
+}
+
+// "0x1A2B": 6 characters.
+inline char* write_hex4(char* p, std::uint16_t value) {
+    p[0] = '0';
+    p[1] = 'x';
+    std::memcpy(p + 2, &kHexPairs[2 * std::size_t{static_cast<std::uint8_t>(value >> 8U)}], 2);
+    std::memcpy(p + 4, &kHexPairs[2 * std::size_t{static_cast<std::uint8_t>(value)}], 2);
+    return p + 6;
+}
+
+inline void append_hex4(std::string& out, std::uint16_t value) {
+    char text[6];
+    out.append(text, write_hex4(text, value));
+}
+
+// Text a sink builds in memory, handed to its file in blocks: one write per 64 KiB
+// instead of one per record. send() hands over what is pending (the sinks call it on
+// flush(), per record when live, and before anything they print directly).
+class BlockOutput {
+  public:
+    explicit BlockOutput(std::FILE* file) : file_(file) {}
+    BlockOutput(const BlockOutput&) = delete;
+    BlockOutput& operator=(const BlockOutput&) = delete;
+    // Cannot throw here: a failure is left in the file's error indicator, which main
+    // checks before it exits.
+    ~BlockOutput() {
+        if (used_ > 0) std::fwrite(block_.get(), 1, used_, file_);
+    }
+
+    [[nodiscard]] std::FILE* file() const { return file_; }
+
+    // A record written straight into the block: `write` gets where to write, at most
+    // `bound` characters, and returns the end of what it wrote. The room is not filled
+    // first, as a std::string's resize must (a memset of the whole bound per CSV row).
+    template <class Write>
+    void write(std::size_t bound, Write write) {
+        make_room(bound);
+        used_ = static_cast<std::size_t>(write(block_.get() + used_) - block_.get());
+        if (used_ >= kIoBlockBytes) send();
+    }
+
+    // A record composed with std::string's appends (the text and JSONL sinks): line() is
+    // where it goes, record_done() moves it into the block.
+    std::string& line() { return line_; }
+    void record_done() {
+        write(line_.size(), [&](char* p) { return std::copy(line_.begin(), line_.end(), p); });
+        line_.clear();
+    }
+
+    // A write the file refuses throws (see flush_output).
+    void send() {
+        if (used_ == 0) return;
+        const std::size_t pending = used_;
+        used_ = 0;
+        write_output(file_, {block_.get(), pending});
+    }
+    // What is pending, and then what stdio holds, to the system.
+    void flush() {
+        send();
+        flush_output(file_);
+    }
+
+  private:
+    void make_room(std::size_t bound) {
+        if (capacity_ - used_ >= bound) return;
+        // Records are added below kIoBlockBytes (a full block is sent at once), so one block
+        // and a record's bound is all the room there ever is, unless a record is larger.
+        const std::size_t capacity = std::max(kIoBlockBytes, used_) + bound;
+        auto larger = std::make_unique_for_overwrite<char[]>(capacity);
+        if (used_ > 0) std::memcpy(larger.get(), block_.get(), used_);
+        block_ = std::move(larger);
+        capacity_ = capacity;
+    }
+
+    std::FILE* file_;
+    std::unique_ptr<char[]> block_;
+    std::size_t capacity_ = 0;
+    std::size_t used_ = 0;
+    std::string line_;
+};
+
+}  // namespace rtuscope
