@@ -37,7 +37,7 @@
 
 #include "framing/crc.hpp"
 #include "framing/framer.hpp"
-#include "framing/protocol_rules.hpp"
+#include "framing/functions.hpp"
 #include "input/sources.hpp"
 
 namespace {

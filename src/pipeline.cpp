@@ -4,17 +4,12 @@
 
 #include <algorithm>
 
-#include "decode/decoder.hpp"
+#include "decode/record_decoder.hpp"
 #include "framing/framer.hpp"
 #include "output/sinks.hpp"
 
 namespace rtuscope {
 namespace {
-
-bool has_note(const Record& record, const char* id) {
-    return std::any_of(record.notes.begin(), record.notes.end(),
-                       [&](const Note& n) { return std::string_view(n.id) == id; });
-}
 
 void count(Totals& totals, const Record& record) {
     ++totals.records;
@@ -45,116 +40,11 @@ void count(Totals& totals, const Record& record) {
     }
     if (record.frame.crc.status == CrcStatus::bad) ++totals.crc_bad;
     if (record.frame.crc.status == CrcStatus::swapped) ++totals.crc_swapped;
-    if (has_note(record, note_id::no_answer)) ++totals.unanswered;
-    if (has_note(record, note_id::unsolicited)) ++totals.unsolicited;
+    if (record.notes.has(note_id::no_answer)) ++totals.unanswered;
+    if (record.notes.has(note_id::unsolicited)) ++totals.unsolicited;
 }
 
 }  // namespace
-
-namespace {
-
-// A function code the device defines for itself: its name, and its data explained as
-// the profile's layout says.
-DecodedPdu decode_own_function(const FunctionOverride& f, std::span<const std::uint8_t> pdu) {
-    DecodedPdu d;
-    d.function_name = f.name;
-    const auto data = pdu.subspan(1);
-    if (f.layout == "address_value" && data.size() >= 4) {
-        DataBlock block;
-        block.custom_table = f.table;
-        block.start = static_cast<std::uint16_t>((data[0] << 8) | data[1]);
-        block.values.push_back(static_cast<std::uint16_t>((data[2] << 8) | data[3]));
-        block.write = true;
-        d.summary = fmt::format("0x{:04X} = 0x{:04X}", block.start, block.values[0]);
-        if (data.size() != 4) {
-            d.notes.push_back({note_id::malformed,
-                               fmt::format("{} data bytes, the profile says 4", data.size())});
-        }
-        d.blocks.push_back(std::move(block));
-    } else {
-        d.summary = data_bytes_text(data);
-        if (f.layout == "address_value") {
-            d.notes.push_back({note_id::malformed,
-                               fmt::format("{} data bytes, the profile says 4", data.size())});
-        }
-    }
-    return d;
-}
-
-// Many devices take fewer registers per request than the standard's 125 (the PDU485:
-// 100); a master asking for more gets an exception or silence, and this says why.
-void note_over_device_limit(Record& record, const Profile& profile) {
-    const auto& b = record.frame.bytes;
-    if (b.size() < 8) return;
-    const std::uint8_t function = b[1];
-    if (function != 0x03 && function != 0x04 && function != 0x10 && function != 0x17) return;
-    const auto quantity = static_cast<unsigned>((b[4] << 8) | b[5]);
-    if (quantity > profile.max_registers) {
-        record.notes.push_back({note_id::over_device_limit,
-                                fmt::format("{} registers asked, {} allows at most {}", quantity,
-                                            profile.name, profile.max_registers)});
-    }
-}
-
-// Modbus reserves slave addresses 248-255; a frame there is a garbled address or a device
-// that ignores the rule, unless its profile says it uses that address (the PDU485 takes
-// up to 250, the ZB-UVI485 broadcasts on 255).
-void note_reserved_address(Record& record) {
-    const std::uint8_t slave = record.frame.slave();
-    if (slave <= 247) return;
-    const Profile* p = record.profile;
-    if (p != nullptr &&
-        (p->broadcast == slave || (slave >= p->first_address && slave <= p->last_address))) {
-        return;
-    }
-    record.notes.push_back(
-        {note_id::reserved_address, fmt::format("slave address {} is reserved (248-255)", slave)});
-}
-
-}  // namespace
-
-void decode_record(Record& record, const Bus* bus) {
-    const Frame& frame = record.frame;
-    record.profile = bus != nullptr && !frame.bytes.empty() ? bus->owner(frame.slave()) : nullptr;
-    if (frame.cls == RecordClass::noise || frame.bytes.size() < 2) return;
-    const bool cut_short = frame.bytes.size() < kMinAdu ||
-                           std::any_of(record.notes.begin(), record.notes.end(), [](const Note& n) {
-                               return std::string_view(n.id) == note_id::truncated;
-                           });
-    const FunctionOverride* own =
-        record.profile != nullptr
-            ? record.profile->function(static_cast<std::uint8_t>(frame.function() & 0x7FU))
-            : nullptr;
-    if (cut_short) {
-        // No CRC at the end to strip: name the function, decode nothing.
-        record.decoded.function_name = own != nullptr ? own->name : function_name(frame.function());
-        return;
-    }
-    const Role role = (record.kind == Kind::response || record.kind == Kind::exception ||
-                       frame.reading == Reading::response || frame.reading == Reading::exception)
-                          ? Role::response
-                          : Role::request;
-    std::span<const std::uint8_t> request_pdu;
-    if (record.request.size() >= kMinAdu) {
-        request_pdu = std::span(record.request).subspan(1, record.request.size() - 3);
-    }
-    if (own != nullptr && !(frame.function() & 0x80U)) {
-        record.decoded = decode_own_function(*own, frame.pdu());
-    } else {
-        decode_pdu(frame.pdu(), role, request_pdu, record.decoded);
-        if (own != nullptr) record.decoded.function_name = own->name;
-    }
-    for (const Note& note : record.decoded.notes) record.notes.push_back(note);
-    note_reserved_address(record);
-    if (record.profile != nullptr && own == nullptr && role == Role::request) {
-        note_over_device_limit(record, *record.profile);
-    }
-    if (record.profile != nullptr) {
-        for (const DataBlock& block : record.decoded.blocks) {
-            decode_values(*record.profile, block, record.values);
-        }
-    }
-}
 
 Status run_pipeline(ChunkSource& source, const PipelineOptions& options, RecordSink& sink,
                     Totals* totals_out) {
@@ -178,7 +68,7 @@ Status run_pipeline(ChunkSource& source, const PipelineOptions& options, RecordS
     if (options.bus != nullptr) bus_rules.emplace(*options.bus);
     const ProtocolRules* rules = bus_rules ? &*bus_rules : &standard_rules();
     Transactions transactions({options.timeout, rules}, [&](Record&& record) {
-        decode_record(record, options.bus);
+        decode_record(record, *rules, options.bus);
         count(totals, record);
         sink.record(record);
         if (options.live) sink.flush();

@@ -10,7 +10,7 @@
 #include "profiles/bus.hpp"
 #include "input/chunk.hpp"
 #include "framing/line_settings.hpp"
-#include "framing/protocol_rules.hpp"
+#include "framing/functions.hpp"
 #include "util/result.hpp"
 #include "pairing/transactions.hpp"
 
@@ -71,9 +71,5 @@ class RecordSink {
 // `totals`, when given, receives the closing counts.
 Status run_pipeline(ChunkSource& source, const PipelineOptions& options, RecordSink& sink,
                     Totals* totals = nullptr);
-
-// The decoder stage for one record: the standard PDU, or the device's own function code,
-// and the register values in the device's words when the bus map has its profile.
-void decode_record(Record& record, const Bus* bus);
 
 }  // namespace rtuscope

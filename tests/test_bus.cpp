@@ -2,6 +2,8 @@
 // (length, echo answers), its broadcast address, silence instead of exceptions.
 #include <gtest/gtest.h>
 
+#include "decode/pdu_decoders.hpp"
+#include "decode/record_decoder.hpp"
 #include "profiles/bus.hpp"
 #include "pipeline.hpp"
 #include "support.hpp"
@@ -21,18 +23,17 @@ Profile uv_like() {
     p.name = "uv-test";
     p.broadcast = 255;
     p.exception_answers = false;
-    FunctionOverride set_coefficient;
-    set_coefficient.code = 0x04;
+    FunctionSpec set_coefficient = own_function(0x04);
     set_coefficient.name = "Set correction coefficient";
-    set_coefficient.request_length = 8;
-    set_coefficient.answer = FunctionOverride::Answer::echo;
-    set_coefficient.layout = "address_value";
-    set_coefficient.table = "eeprom";
-    FunctionOverride fire_and_forget;
-    fire_and_forget.code = 0x42;
+    set_coefficient.request_length = LengthRule::fixed(8);
+    set_coefficient.answer = Answer::echo;
+    set_coefficient.decode_request = set_coefficient.decode_response =
+        device_layout_decoder("address_value");
+    set_coefficient.device_table = "eeprom";
+    FunctionSpec fire_and_forget = own_function(0x42);
     fire_and_forget.name = "Blink";
-    fire_and_forget.request_length = 5;
-    fire_and_forget.answer = FunctionOverride::Answer::none;
+    fire_and_forget.request_length = LengthRule::fixed(5);
+    fire_and_forget.answer = Answer::none;
     p.functions = {set_coefficient, fire_and_forget};
     Register intensity;
     intensity.name = "uv_intensity";
@@ -57,7 +58,7 @@ struct BusHarness {
         BusRules rules(bus);
         std::vector<Record> records;
         Transactions transactions({kNanosPerSecond, &rules}, [&](Record&& r) {
-            decode_record(r, &bus);
+            decode_record(r, rules, &bus);
             records.push_back(std::move(r));
         });
         FramerOptions o;

@@ -16,12 +16,25 @@ namespace {
 using Bytes = std::vector<std::uint8_t>;
 using Ids = std::vector<std::string>;
 
+// The PDU decoded by its standard function entry.
+DecodedPdu decode(const Bytes& pdu, Role role, const Bytes& asked = {}) {
+    DecodedPdu d;
+    decode_pdu(standard_function(pdu.empty() ? 0 : pdu[0]), pdu, role, asked, d);
+    return d;
+}
+
 DecodedPdu request(const Bytes& pdu) {
-    return decode_pdu(pdu, Role::request);
+    return decode(pdu, Role::request);
 }
 
 DecodedPdu response(const Bytes& pdu, const Bytes& asked = {}) {
-    return decode_pdu(pdu, Role::response, asked);
+    return decode(pdu, Role::response, asked);
+}
+
+std::string data_bytes(std::span<const std::uint8_t> data) {
+    std::string text;
+    append_data_bytes(text, data);
+    return text;
 }
 
 Ids ids(const DecodedPdu& d) {
@@ -774,21 +787,21 @@ TEST(DecoderDiagnostics, EchoOfDataBeyondALegalFrameIsCounted) {
     echoed.back() = 0x22;
     const DecodedPdu d = response(echoed, asked);
     EXPECT_EQ(ids(d), Ids{"pdu.request_mismatch"});
-    const std::string shown = data_bytes_text(std::span(asked).subspan(3, kMaxPduDataShown));
+    const std::string shown = data_bytes(std::span(asked).subspan(3, kMaxPduDataShown));
     const std::string rest = " ... (+299748 more)";  // 300,000 - 252
     EXPECT_EQ(d.notes[0].text, "echo differs from the request (" + shown + rest + ")");
     const std::string echoed_shown =
-        data_bytes_text(std::span(echoed).subspan(3, kMaxPduDataShown));
+        data_bytes(std::span(echoed).subspan(3, kMaxPduDataShown));
     EXPECT_EQ(d.summary, "Return Query Data " + echoed_shown + rest);
 }
 
 TEST(DecoderUnknownFunction, Names) {
-    EXPECT_EQ(function_name(0x03), "Read Holding Registers");
-    EXPECT_EQ(function_name(0x83), "Read Holding Registers");
-    EXPECT_EQ(function_name(0x2B), "Encapsulated Interface Transport");
-    EXPECT_EQ(function_name(0x00), "Function 0x00");
-    EXPECT_EQ(function_name(0x64), "Function 0x64");
-    EXPECT_EQ(function_name(0xC1), "Function 0x41");
+    EXPECT_EQ(standard_function(0x03).name, "Read Holding Registers");
+    EXPECT_EQ(standard_function(0x83).name, "Read Holding Registers");
+    EXPECT_EQ(standard_function(0x2B).name, "Encapsulated Interface Transport");
+    EXPECT_EQ(standard_function(0x00).name, "Function 0x00");
+    EXPECT_EQ(standard_function(0x64).name, "Function 0x64");
+    EXPECT_EQ(standard_function(0xC1).name, "Function 0x41");
 }
 
 // ---- Truncated and hostile input ----
@@ -841,9 +854,9 @@ TEST(DecoderTruncated, EveryPrefixOfEveryExampleDecodesWithoutCrashing) {
             // A heap copy of exactly n bytes, so reading past it is an error the sanitizer sees.
             const Bytes prefix(full.begin(), full.begin() + static_cast<std::ptrdiff_t>(n));
             for (Role role : {Role::request, Role::response}) {
-                notes += decode_pdu(prefix, role).notes.size();
-                notes += decode_pdu(prefix, role, full).notes.size();
-                notes += decode_pdu(full, role, prefix).notes.size();
+                notes += decode(prefix, role).notes.size();
+                notes += decode(prefix, role, full).notes.size();
+                notes += decode(full, role, prefix).notes.size();
             }
         }
     }
@@ -856,8 +869,8 @@ TEST(DecoderTruncated, EveryFunctionCodeWithPatternedData) {
             for (std::size_t n = 0; n < 12; ++n) {
                 Bytes pdu{static_cast<std::uint8_t>(fc)};
                 pdu.insert(pdu.end(), n, fill);
-                const DecodedPdu q = decode_pdu(pdu, Role::request);
-                const DecodedPdu a = decode_pdu(pdu, Role::response, pdu);
+                const DecodedPdu q = decode(pdu, Role::request);
+                const DecodedPdu a = decode(pdu, Role::response, pdu);
                 EXPECT_FALSE(q.function_name.empty());
                 EXPECT_FALSE(a.function_name.empty());
             }

@@ -330,7 +330,8 @@ TEST(Csv, QuotesExactlyTheFieldsThatHoldACommaAQuoteOrALineBreak) {
         Record r;
         r.kind = Kind::noise;
         for (const std::string& text : texts) {
-            r.notes = {Note{"test.note", text}};  // the notes column is the note's text
+            r.notes.clear();
+            r.notes.add("test.note", text);  // the notes column is the note's text
             sink.record(r);
         }
         r.kind = Kind::unknown;

@@ -100,9 +100,10 @@ access = "W"
     EXPECT_FALSE(p.exception_answers);
     EXPECT_EQ(p.max_registers, 100);
     ASSERT_NE(p.function(0x04), nullptr);
-    EXPECT_EQ(p.function(0x04)->answer, FunctionOverride::Answer::echo);
-    EXPECT_EQ(p.function(0x04)->request_length, 8U);
-    EXPECT_EQ(p.function(0x04)->table, "eeprom");
+    EXPECT_EQ(p.function(0x04)->answer, Answer::echo);
+    EXPECT_EQ(p.function(0x04)->request_length.kind, LengthRule::Kind::fixed);
+    EXPECT_EQ(p.function(0x04)->request_length.n, 8U);
+    EXPECT_EQ(p.function(0x04)->device_table, "eeprom");
     EXPECT_EQ(p.function(0x05), nullptr);
 
     ASSERT_EQ(p.registers.size(), 6U);

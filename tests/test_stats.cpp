@@ -40,7 +40,7 @@ Record make_record(Kind kind, Bytes bytes, Nanos start = kNoTime, Nanos latency 
 }
 
 Record with_note(Record r, const char* id) {
-    r.notes.push_back({id, "test"});
+    r.notes.add(id, "test");
     return r;
 }
 

@@ -89,6 +89,13 @@ Profile meter() {
     return p;
 }
 
+// Every value of the block, as a list of its own.
+std::vector<DecodedValue> decode_values(const Profile& profile, const DataBlock& block) {
+    ReusedList<DecodedValue> decoded;
+    rtuscope::decode_values(profile, block, decoded);
+    return {decoded.begin(), decoded.end()};
+}
+
 DataBlock holding(std::uint16_t start, std::vector<std::uint16_t> values, bool write = false) {
     DataBlock b;
     b.table = DataTable::holding_registers;

@@ -5,6 +5,7 @@
 #include <memory>
 
 #include "bus_options.hpp"
+#include "decode/pdu_decoders.hpp"
 #include "errors.hpp"
 
 namespace rtuscope::cli {
@@ -97,13 +98,17 @@ int show_profile(const BusArgs& args, const std::string& name) {
     fmt::print("exception answers: {}\n",
                p->exception_answers ? "yes" : "no (errors are answered with silence)");
     fmt::print("registers per request: at most {}\n", p->max_registers);
-    for (const FunctionOverride& f : p->functions) {
-        const char* answer = f.answer == FunctionOverride::Answer::echo   ? "echo"
-                             : f.answer == FunctionOverride::Answer::none ? "none"
-                                                                          : "standard";
+    for (const FunctionSpec& f : p->functions) {
+        const char* answer = f.answer == Answer::echo   ? "echo"
+                             : f.answer == Answer::none ? "none"
+                                                        : "standard";
+        const std::string_view layout = device_layout_name(f.decode_request);
         fmt::print("function 0x{:02X} {}: request {} bytes, answer {}{}\n", f.code, f.name,
-                   f.request_length != 0 ? std::to_string(f.request_length) : "standard", answer,
-                   f.layout.empty() ? "" : fmt::format(", {} in table {}", f.layout, f.table));
+                   f.request_length.kind == LengthRule::Kind::fixed
+                       ? std::to_string(f.request_length.n)
+                       : "standard",
+                   answer,
+                   layout.empty() ? "" : fmt::format(", {} in table {}", layout, f.device_table));
     }
     fmt::print("\n{:<9} {:<7} {:<24} {:<6} {:<7} {:<8} {:<6} {:<14} {}\n", "table", "address",
                "name", "type", "scale", "unit", "access", "range", "description");

@@ -51,11 +51,10 @@ void add_crc_note(Frame& frame) {
     const CrcCheck& crc = frame.crc;
     if (crc.status != CrcStatus::bad && crc.status != CrcStatus::swapped) return;
     const bool bad = crc.status == CrcStatus::bad;
-    frame.notes.push_back(
-        {bad ? note_id::crc_mismatch : note_id::crc_swapped,
+    frame.notes.add(bad ? note_id::crc_mismatch : note_id::crc_swapped,
          fmt::format("{} (expected {:02X} {:02X}, got {:02X} {:02X})",
                      bad ? "CRC BAD" : "CRC bytes swapped", crc.expected & 0xFFU, crc.expected >> 8,
-                     crc.received & 0xFFU, crc.received >> 8)});
+                     crc.received & 0xFFU, crc.received >> 8));
 }
 
 // How well a reading's CRC checks, for the choice between readings: right beats swapped
@@ -706,7 +705,7 @@ void Framer::emit_chunk_as_frame(const Chunk& chunk) {
     if (frame.bytes.size() < kMinAdu) frame.cls = RecordClass::invalid;
     add_crc_note(frame);
     if (frame.reading == Reading::unknown && frame.cls == RecordClass::frame) {
-        frame.notes.push_back({note_id::malformed, "length does not fit its function code"});
+        frame.notes.add(note_id::malformed, "length does not fit its function code");
     }
     emit_(frame);
 }
@@ -738,7 +737,7 @@ void Framer::emit(std::size_t at, std::size_t length, RecordClass cls, Reading r
     frame.source_line = piece.line;
     // Noise and frames cut short come without a CRC check, so without a CRC note.
     add_crc_note(frame);
-    if (note != nullptr) frame.notes.push_back(*note);
+    if (note != nullptr) frame.notes.add(note->id, note->text);
     // Silences are measured only before a chunk's first byte: a frame in the middle of
     // one chunk has none to note.
     if (cls != RecordClass::noise && (piece.first == base_ + at || !within_piece)) {
@@ -753,9 +752,8 @@ void Framer::emit(std::size_t at, std::size_t length, RecordClass cls, Reading r
 
 void Framer::add_time_jump_notes(Frame& frame, std::size_t at, std::size_t length) const {
     for (const auto& [index, back] : within_frame(time_jumps_, at, length, &TimeJump::first)) {
-        frame.notes.push_back(
-            {note_id::time_backwards, fmt::format("the input's time goes back {:.3f} s here",
-                                                  static_cast<double>(back) / 1e9)});
+        frame.notes.add(note_id::time_backwards, fmt::format("the input's time goes back {:.3f} s here",
+                                                  static_cast<double>(back) / 1e9));
     }
 }
 
@@ -765,7 +763,7 @@ void Framer::add_char_error_note(Frame& frame, std::size_t at, std::size_t lengt
         hit += (hit.empty() ? "" : ", ") + std::to_string(index - at + 1);
     }
     if (!hit.empty()) {
-        frame.notes.push_back({note_id::char_error, "parity/framing error on byte " + hit});
+        frame.notes.add(note_id::char_error, "parity/framing error on byte " + hit);
     }
 }
 
@@ -775,10 +773,9 @@ void Framer::add_timing_notes(Frame& frame, const Piece& first, std::size_t at,
     // bytes only says when the adapter handed them over.
     auto measured = [](const Piece& p) { return p.exact && is_measured(p.gap); };
     if (first.first == base_ + at && measured(first) && first.gap < t35_) {
-        frame.notes.push_back(
-            {note_id::short_gap,
+        frame.notes.add(note_id::short_gap,
              fmt::format("{:.1f} character times of silence before it (< t3.5)",
-                         static_cast<double>(first.gap) / static_cast<double>(char_time_))});
+                         static_cast<double>(first.gap) / static_cast<double>(char_time_)));
     }
     // Silences inside: before the first byte of every later chunk within the frame.
     Nanos widest = 0;
@@ -787,8 +784,8 @@ void Framer::add_timing_notes(Frame& frame, const Piece& first, std::size_t at,
         if (measured(pieces_[i])) widest = std::max(widest, pieces_[i].gap);
     }
     if (widest > t15_) {
-        frame.notes.push_back({note_id::gap_inside,
-                               fmt::format("silence of {:.2f} ms inside (> t1.5)", in_ms(widest))});
+        frame.notes.add(note_id::gap_inside,
+                               fmt::format("silence of {:.2f} ms inside (> t1.5)", in_ms(widest)));
     }
 }
 

@@ -19,7 +19,7 @@
 #include "framing/expectation.hpp"
 #include "framing/frame.hpp"
 #include "framing/line_settings.hpp"
-#include "framing/protocol_rules.hpp"
+#include "framing/functions.hpp"
 
 namespace rtuscope {
 

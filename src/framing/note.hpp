@@ -1,9 +1,12 @@
 // A diagnostic attached to a record. Every diagnostic has one stable dotted id, used
-// the same in every output (text, CSV, later JSONL), as Wireshark's expert info does.
+// the same in every output (text, CSV, JSONL), as Wireshark's expert info does.
 #pragma once
 
+#include <algorithm>
 #include <string>
-#include <vector>
+#include <string_view>
+
+#include "util/reused_list.hpp"
 
 namespace rtuscope {
 
@@ -17,7 +20,20 @@ struct Note {
     }
 };
 
-using Notes = std::vector<Note>;
+// A record's notes, in the order they were noticed.
+class Notes : public ReusedList<Note> {
+  public:
+    using ReusedList::add;
+    Note& add(const char* id, std::string_view text) {
+        Note& note = add();
+        note.id = id;
+        note.text = text;
+        return note;
+    }
+    [[nodiscard]] bool has(std::string_view id) const {
+        return std::any_of(begin(), end(), [&](const Note& n) { return id == n.id; });
+    }
+};
 
 // The ids in use. Adding one is fine; renaming one breaks users' filters.
 namespace note_id {

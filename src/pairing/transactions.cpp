@@ -85,7 +85,7 @@ void Transactions::give_up_on_request(std::string_view why) {
     if (!options_.rules->answers_errors(request.frame.slave())) {
         text += " (this device answers errors with silence)";
     }
-    request.notes.push_back({note_id::no_answer, std::move(text)});
+    request.notes.add(note_id::no_answer, std::move(text));
     awaiting_.reset();
     release();
 }
@@ -183,12 +183,11 @@ void Transactions::push(Frame& frame) {
         } else if (answered_ && f.slave() == answered_->slave &&
                    (f.function() & 0x7FU) == answered_->function) {
             record.request_number = answered_->request_number;
-            record.notes.push_back(
-                {note_id::duplicate_answer,
+            record.notes.add(note_id::duplicate_answer,
                  fmt::format("second answer to #{} (after #{}): two devices on address {}?",
-                             answered_->request_number, answered_->answer_number, f.slave())});
+                             answered_->request_number, answered_->answer_number, f.slave()));
         } else if (!invalid) {
-            record.notes.push_back({note_id::unsolicited, "answer with no request"});
+            record.notes.add(note_id::unsolicited, "answer with no request");
         }
     } else if (is_request) {
         answered_.reset();
@@ -197,9 +196,8 @@ void Transactions::push(Frame& frame) {
     }
 
     if (record.kind == Kind::exception && !options_.rules->answers_errors(f.slave())) {
-        record.notes.push_back(
-            {note_id::unexpected_exception,
-             "this device is said to answer errors with silence, not exceptions"});
+        record.notes.add(note_id::unexpected_exception,
+             "this device is said to answer errors with silence, not exceptions");
     }
     const bool awaits = (record.kind == Kind::request ||
                          (invalid && is_request && !options_.rules->is_broadcast(f.slave()))) &&

@@ -14,7 +14,7 @@
 #include "decode/decoder.hpp"
 #include "framing/expectation.hpp"
 #include "framing/frame.hpp"
-#include "framing/protocol_rules.hpp"
+#include "framing/functions.hpp"
 #include "profiles/values.hpp"
 
 namespace rtuscope {

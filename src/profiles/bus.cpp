@@ -200,33 +200,10 @@ Status load_bus_file(Bus& bus, const std::string& path) {
     return ok_status();
 }
 
-FrameLengths BusRules::frame_lengths(std::span<const std::uint8_t> head) const {
-    FrameLengths standard = ProtocolRules::frame_lengths(head);
-    if (head.size() < 2 || (head[1] & 0x80U)) return standard;
-    const Profile* profile = bus_.owner(head[0]);
-    const FunctionOverride* f = profile != nullptr ? profile->function(head[1]) : nullptr;
-    if (f == nullptr) return standard;
-    if (f->request_length != 0) standard.request = FrameLength::fixed_at(f->request_length);
-    switch (f->answer) {
-        case FunctionOverride::Answer::echo:
-            standard.response = standard.request;
-            break;
-        case FunctionOverride::Answer::none:
-            standard.response = FrameLength::no_reading();
-            break;
-        case FunctionOverride::Answer::standard:
-            break;
-    }
-    return standard;
-}
-
-bool BusRules::answer_is_echo(std::uint8_t slave, std::uint8_t function) const {
+const FunctionSpec& BusRules::function(std::uint8_t slave, std::uint8_t code) const {
     const Profile* profile = bus_.owner(slave);
-    const FunctionOverride* f = profile != nullptr ? profile->function(function) : nullptr;
-    if (f != nullptr && f->answer != FunctionOverride::Answer::standard) {
-        return f->answer == FunctionOverride::Answer::echo;
-    }
-    return ProtocolRules::answer_is_echo(slave, function);
+    const FunctionSpec* own = profile != nullptr ? profile->function(code & 0x7FU) : nullptr;
+    return own != nullptr ? *own : standard_function(code);
 }
 
 bool BusRules::is_broadcast(std::uint8_t slave) const {
@@ -235,12 +212,6 @@ bool BusRules::is_broadcast(std::uint8_t slave) const {
     // address; when the bus map puts such a device on 0, 0 is that device.
     if (slave == 0) return profile == nullptr || !profile->broadcast.has_value();
     return profile != nullptr && profile->broadcast == slave;
-}
-
-bool BusRules::expects_answer(std::uint8_t slave, std::uint8_t function) const {
-    const Profile* profile = bus_.owner(slave);
-    const FunctionOverride* f = profile != nullptr ? profile->function(function) : nullptr;
-    return f == nullptr || f->answer != FunctionOverride::Answer::none;
 }
 
 bool BusRules::answers_errors(std::uint8_t slave) const {

@@ -12,7 +12,7 @@
 
 #include "framing/line_settings.hpp"
 #include "profiles/profile.hpp"
-#include "framing/protocol_rules.hpp"
+#include "framing/functions.hpp"
 #include "util/result.hpp"
 
 namespace rtuscope {
@@ -71,10 +71,9 @@ class BusRules final : public ProtocolRules {
   public:
     explicit BusRules(const Bus& bus) : bus_(bus) {}
 
-    [[nodiscard]] FrameLengths frame_lengths(std::span<const std::uint8_t> head) const override;
-    [[nodiscard]] bool answer_is_echo(std::uint8_t slave, std::uint8_t function) const override;
+    [[nodiscard]] const FunctionSpec& function(std::uint8_t slave,
+                                               std::uint8_t code) const override;
     [[nodiscard]] bool is_broadcast(std::uint8_t slave) const override;
-    [[nodiscard]] bool expects_answer(std::uint8_t slave, std::uint8_t function) const override;
     [[nodiscard]] bool answers_errors(std::uint8_t slave) const override;
 
   private:

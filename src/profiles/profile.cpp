@@ -1,6 +1,8 @@
 // Lookups in a loaded profile.
 #include "profiles/profile.hpp"
 
+#include "decode/pdu_decoders.hpp"
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -25,8 +27,19 @@ bool is_bit_table(std::string_view table) {
     return table == "coil" || table == "discrete";
 }
 
-const FunctionOverride* Profile::function(std::uint8_t code) const {
-    for (const FunctionOverride& f : functions) {
+FunctionSpec own_function(std::uint8_t code) {
+    FunctionSpec f = standard_function(code);
+    f.request_length = LengthRule::standard();
+    f.table = DataTable::none;
+    f.access = DataAccess::none;
+    f.max_quantity = 0;
+    f.decode_request = f.decode_response = decode_data_bytes;
+    f.device_table = "holding";
+    return f;
+}
+
+const FunctionSpec* Profile::function(std::uint8_t code) const {
+    for (const FunctionSpec& f : functions) {
         if (f.code == code) return &f;
     }
     return nullptr;

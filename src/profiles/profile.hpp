@@ -12,6 +12,7 @@
 #include <string_view>
 #include <vector>
 
+#include "framing/functions.hpp"
 #include "framing/line_settings.hpp"
 #include "util/result.hpp"
 
@@ -58,20 +59,6 @@ struct Register {
     SourcePos pos;
 };
 
-// A function code the device uses differently from the standard (or not at all in the
-// standard). Lengths are whole ADUs: address + function + data + CRC.
-struct FunctionOverride {
-    std::uint8_t code = 0;
-    std::string name;                // "Set correction coefficient"
-    std::size_t request_length = 0;  // 0: as the standard says
-    enum class Answer : std::uint8_t { standard, echo, none } answer = Answer::standard;
-    // Layout of the request data, so that its value can be explained:
-    // "address_value" (like FC06: a 16-bit address then a 16-bit value), or "" (raw).
-    std::string layout;
-    std::string table = "holding";  // the registers `address_value` refers to
-    SourcePos pos;
-};
-
 struct Profile {
     std::string name;                  // "zb-uvi485": what --device and the bus file use
     std::string title;                 // "ZB-UVI485 UV-intensity transmitter (Chongqing Zibo)"
@@ -83,10 +70,14 @@ struct Profile {
     std::optional<std::uint8_t> broadcast;  // non-standard broadcast address (0xFF)
     bool exception_answers = true;          // false: errors are answered with silence
     std::uint16_t max_registers = 125;      // per read request
-    std::vector<FunctionOverride> functions;
+    // The device's own function codes ([[function]]): entries of the function table's
+    // shape (framing/functions.hpp), whose length, answer and decoders replace the
+    // standard entry's for this device's slaves.
+    std::vector<FunctionSpec> functions;
     std::vector<Register> registers;  // sorted by table, then address
 
-    [[nodiscard]] const FunctionOverride* function(std::uint8_t code) const;
+    // The device's own entry for `code`, or nullptr where the standard's applies.
+    [[nodiscard]] const FunctionSpec* function(std::uint8_t code) const;
     // The register that starts at `address` in `table`, or nullptr.
     [[nodiscard]] const Register* register_at(const std::string& table,
                                               std::uint16_t address) const;
@@ -101,6 +92,12 @@ struct Profile {
     [[nodiscard]] static const Register* covering(std::span<const Register> table,
                                                   std::uint16_t address);
 };
+
+// The entry a [[function]] of `code` starts from: the standard entry's lengths and
+// answer, its length as the standard's (LengthRule::standard), and the data the device's
+// own: no standard table or quantity, shown as bytes, of the table "holding" unless the
+// profile names another.
+FunctionSpec own_function(std::uint8_t code);
 
 // One mistake in a profile file, with its position.
 struct ProfileProblem {

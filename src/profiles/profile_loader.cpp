@@ -17,6 +17,7 @@
 #include <string_view>
 #include <vector>
 
+#include "decode/pdu_decoders.hpp"
 #include "profiles/profile.hpp"
 #include "profiles/profile_formula.hpp"
 #include "util/text_file.hpp"
@@ -227,34 +228,31 @@ class Loader {
         }
     }
 
+    // A [[function]]: the standard entry of its code with what the file says instead. Its
+    // data is the profile's (its layout, of its table), not the standard's.
     void read_function(const toml::table& t) {
         check_keys(t, {"code", "name", "request_length", "answer", "layout", "table"},
                    "in [[function]]");
-        FunctionOverride f;
-        f.pos = pos_of(t.source());
         const auto code = get_integer(t, "code", 1, 127);
         if (!code) {
             if (t.get("code") == nullptr) problem(t, "[[function]] needs a code");
             return;
         }
-        f.code = static_cast<std::uint8_t>(*code);
+        FunctionSpec f = own_function(static_cast<std::uint8_t>(*code));
         if (profile_.function(f.code) != nullptr) {
             problem(*t.get("code"), fmt::format("function 0x{:02X} is defined twice", f.code));
             return;
         }
-        if (auto name = get_string(t, "name")) {
-            f.name = *name;
-        } else {
-            f.name = fmt::format("Function 0x{:02X}", f.code);
-        }
-        if (auto n = get_integer(t, "request_length", 4, 256)) {
-            f.request_length = static_cast<std::size_t>(*n);
+        if (auto name = get_string(t, "name")) f.name = *name;
+        const auto request_length = get_integer(t, "request_length", 4, 256);
+        if (request_length) {
+            f.request_length = LengthRule::fixed(static_cast<std::uint16_t>(*request_length));
         }
         if (auto answer = get_string(t, "answer")) {
             if (*answer == "echo") {
-                f.answer = FunctionOverride::Answer::echo;
+                f.answer = Answer::echo;
             } else if (*answer == "none") {
-                f.answer = FunctionOverride::Answer::none;
+                f.answer = Answer::none;
             } else if (*answer != "standard") {
                 problem(*t.get("answer"), fmt::format("answer \"{}\" must be \"standard\", "
                                                       "\"echo\" or \"none\"",
@@ -262,9 +260,9 @@ class Loader {
             }
         }
         if (auto layout = get_string(t, "layout")) {
-            if (*layout == "address_value") {
-                f.layout = *layout;
-                if (f.request_length != 0 && f.request_length != 8) {
+            if (const PduDecoder decoder = device_layout_decoder(*layout)) {
+                f.decode_request = f.decode_response = decoder;
+                if (request_length && *request_length != 8) {
                     problem(*t.get("request_length"),
                             "request_length must be 8 with layout \"address_value\" (address, "
                             "function, 2+2 data bytes, CRC)");
@@ -274,7 +272,7 @@ class Loader {
                         fmt::format("layout \"{}\" must be \"address_value\"", *layout));
             }
         }
-        if (auto table = get_string(t, "table")) f.table = *table;
+        if (auto table = get_string(t, "table")) f.device_table = *table;
         profile_.functions.push_back(std::move(f));
     }
 
@@ -379,7 +377,7 @@ class Loader {
         if (auto table = get_string(t, "table")) {
             const bool custom =
                 std::any_of(profile_.functions.begin(), profile_.functions.end(),
-                            [&](const FunctionOverride& f) { return f.table == *table; });
+                            [&](const FunctionSpec& f) { return f.device_table == *table; });
             if (kStandardTables.count(*table) == 0 && !custom) {
                 problem(*t.get("table"),
                         fmt::format("unknown table \"{}\" (holding, input, coil, discrete, or the "

@@ -402,6 +402,8 @@ const char* table_name(DataTable table) {
             return "holding";
         case DataTable::input_registers:
             return "input";
+        case DataTable::none:
+            break;
     }
     return "";  // not a table any profile can name: everything comes out unlisted
 }
@@ -413,15 +415,6 @@ void DecodedValue::clear() {
     unit.clear();
     raw.clear();
     notes.clear();
-}
-
-std::vector<DecodedValue> decode_values(const Profile& profile, const DataBlock& block) {
-    ReusedList<DecodedValue> decoded;
-    decode_values(profile, block, decoded);
-    std::vector<DecodedValue> values;
-    values.reserve(decoded.size());
-    for (const DecodedValue& v : decoded) values.push_back(v);
-    return values;
 }
 
 void decode_values(const Profile& profile, const DataBlock& block, ReusedList<DecodedValue>& out) {

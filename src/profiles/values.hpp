@@ -27,17 +27,15 @@ struct DecodedValue {
     std::string value;          // "220.5", "-5.0", an enum label, bit names, a string
     std::string unit;
     std::string raw;  // the register word(s) in hex: "0x089D", "0x0000 0x3039"
-    ReusedList<Note> notes;  // value.* diagnostics for this value
+    Notes notes;  // value.* diagnostics for this value
 
     void clear();  // empties it, keeping the buffers for the next record's values
 };
 
-// Every value the block carries, in address order. Registers the profile does not list
-// come out one per register with an empty name and a value.unlisted note; a 32-bit
-// register only half in the block comes out with its half and a value.partial note.
-std::vector<DecodedValue> decode_values(const Profile& profile, const DataBlock& block);
-// The same, appended to `out` (a record's values, whose items are reused record after
-// record).
+// Every value the block carries, in address order, appended to `out` (a record's values,
+// whose items are reused record after record). Registers the profile does not list come
+// out one per register with an empty name and a value.unlisted note; a 32-bit register
+// only half in the block comes out with its half and a value.partial note.
 void decode_values(const Profile& profile, const DataBlock& block, ReusedList<DecodedValue>& out);
 
 // The profile table a block of a standard function code belongs to.

@@ -8,11 +8,6 @@
 namespace rtuscope {
 namespace {
 
-bool has_note(const Record& record, const char* id) {
-    return std::any_of(record.notes.begin(), record.notes.end(),
-                       [&](const Note& n) { return std::string_view(n.id) == id; });
-}
-
 void merge_counts(FunctionStats& into, const FunctionStats& from) {
     into.requests += from.requests;
     into.answers += from.answers;
@@ -59,7 +54,7 @@ void BusStats::add(const Record& record) {
     switch (record.kind) {
         case Kind::request: {
             ++s.requests;
-            if (has_note(record, note_id::no_answer)) ++s.no_answer;
+            if (record.notes.has(note_id::no_answer)) ++s.no_answer;
             PollKey poll{key.first, key.second, {}, 0};
             const std::size_t data = f.bytes.size() >= 4 ? f.bytes.size() - 4 : 0;
             poll.size = static_cast<std::uint8_t>(std::min<std::size_t>(data, 4));
@@ -80,7 +75,7 @@ void BusStats::add(const Record& record) {
                 ++s.exceptions;
                 if (f.bytes.size() >= 3) count_exception_code(s, f.bytes[2]);
             }
-            if (has_note(record, note_id::unsolicited)) ++s.unsolicited;
+            if (record.notes.has(note_id::unsolicited)) ++s.unsolicited;
             if (has_time(record.latency)) add_duration(s.turnarounds, record.latency);
             break;
         case Kind::broadcast:

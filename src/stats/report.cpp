@@ -105,10 +105,11 @@ Nanos widest_bin(const BusStats& stats) {
     return widest;
 }
 
-// "0x0000 x2" for the reads, whose first 4 data bytes are address and quantity; the
-// bytes in hex for anything else.
+// "0x0000 x2" for the reads of a table (01-04), whose first 4 data bytes are address and
+// quantity; the bytes in hex for anything else.
 std::string poll_data_text(const PollKey& key) {
-    if (key.function >= 1 && key.function <= 4 && key.size == 4) {
+    const FunctionSpec& spec = standard_function(key.function);
+    if (spec.access == DataAccess::read && spec.table != DataTable::none && key.size == 4) {
         return fmt::format("0x{:02X}{:02X} x{}", key.data[0], key.data[1],
                            key.data[2] * 256U + key.data[3]);
     }
@@ -202,7 +203,7 @@ void write_text(const BusStats& stats, const std::vector<std::string>& remarks, 
             const FunctionStats& c = *f.counts;
             emit({f.key ? fmt::format("{}", f.key->first) : "all",
                   f.key ? fmt::format("{:02X}", f.key->second) : "",
-                  f.key ? function_name(f.key->second) : "", fmt::format("{}", c.requests),
+                  f.key ? standard_function(f.key->second).name : "", fmt::format("{}", c.requests),
                   fmt::format("{}", c.answers), fmt::format("{}", c.exceptions),
                   fmt::format("{}", c.crc_errors), fmt::format("{}", c.no_answer),
                   fmt::format("{}", c.broadcasts), fmt::format("{}", c.unsolicited),

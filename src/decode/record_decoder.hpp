@@ -1,0 +1,16 @@
+// The decoder stage for one record: its PDU by the function entry that applies to its
+// slave (the device's own, or the standard's), checks that need the record or the device
+// (reserved addresses, the device's register limit), and the register values in the
+// device's words when the bus map has its profile.
+#pragma once
+
+#include "framing/functions.hpp"
+#include "pairing/transactions.hpp"
+#include "profiles/bus.hpp"
+
+namespace rtuscope {
+
+// `rules` are the bus map's when there is one (`bus`), else the standard rules.
+void decode_record(Record& record, const ProtocolRules& rules, const Bus* bus);
+
+}  // namespace rtuscope
