@@ -21,6 +21,7 @@
 #include "input/pcap.hpp"
 #include "output/pcap_writer.hpp"
 #include "pipeline.hpp"
+#include "util/text.hpp"
 #include "output/sinks.hpp"
 #include "input/sources.hpp"
 #include "stats/report.hpp"
@@ -291,7 +292,7 @@ TEST(Allocations, NonePerSkippedLineOfAHexLog) {
         [](int cycles) {
             std::string log;
             for (const Bytes& frame : seed_device_polls(cycles)) {
-                log += hex_bytes(frame, true);
+                append_hex(log, frame, true);
                 log += "\nno frame on this line\n";
             }
             return decode_seed_bus(log, csv_sink, InputFormat::hex);

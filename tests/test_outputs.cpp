@@ -15,6 +15,7 @@
 #include "profiles/bus.hpp"
 #include "output/filter.hpp"
 #include "pipeline.hpp"
+#include "output/fields.hpp"
 #include "output/sinks.hpp"
 #include "input/sources.hpp"
 #include "support.hpp"
@@ -94,24 +95,29 @@ TEST(Jsonl, OneObjectPerRecordWithDecodedFieldsAndValues) {
     EXPECT_NE(lines[3].find("txn.unexpected_exception"), std::string::npos);
 }
 
-TEST(Jsonl, StringsAreEscaped) {
-    EXPECT_EQ(json_string("a\"b\\c\nd\x01"), R"("a\"b\\c\nd\u0001")");
-    EXPECT_EQ(json_string("µW/cm²"), "\"µW/cm²\"");
+std::string json(std::string_view text) {
+    std::string out;
+    append_json_string(out, text);
+    return out;
 }
 
-// The sinks append strings through a shortcut for printable ASCII, which needs no
-// escaping: each character that does must still take the long way, alone in a string of
-// plain ones (a channel tag, a profile's names and units may hold any of them).
-TEST(Jsonl, AppendedStringsAreEscapedLikeAnyOther) {
-    for (const std::string_view text :
-         {"plain text", "a\"b", "a\\b", "a\nb", "a\x1F-", "a\x01", "\x7F", "µW/cm²", "bad \xFF"}) {
-        std::string out = "{";
-        append_json_string(out, text);
-        EXPECT_EQ(out, "{" + json_string(text)) << text;
-    }
-    std::string out;
-    append_json_string(out, "@port\\1");
-    EXPECT_EQ(out, R"("@port\\1")");
+// Printable ASCII goes through a shortcut: each character that needs escaping must still
+// be escaped, alone in a string of plain ones (a channel tag, a profile's names and units,
+// a file name may hold any of them).
+TEST(Jsonl, StringsAreEscaped) {
+    EXPECT_EQ(json("plain text"), R"("plain text")");
+    EXPECT_EQ(json("a\"b\\c\nd\x01"), R"("a\"b\\c\nd\u0001")");
+    EXPECT_EQ(json("a\x1F-\r\t"), R"("a\u001f-\r\t")");
+    EXPECT_EQ(json("\x7F"), "\"\x7F\"");
+    EXPECT_EQ(json("µW/cm²"), "\"µW/cm²\"");
+    EXPECT_EQ(json("@port\\1"), R"("@port\\1")");
+    // Not UTF-8 (a Latin-1 file name, a cut sequence, a surrogate): U+FFFD per byte.
+    EXPECT_EQ(json("caf\xe9"), "\"caf\xEF\xBF\xBD\"");
+    EXPECT_EQ(json("\xc3"), "\"\xEF\xBF\xBD\"");
+    EXPECT_EQ(json("\xed\xa0\x80"), "\"\xEF\xBF\xBD\xEF\xBF\xBD\xEF\xBF\xBD\"");
+    std::string out = "{";
+    append_json_string(out, "bad \xFF");
+    EXPECT_EQ(out, "{\"bad \xEF\xBF\xBD\"");
 }
 
 // The text's time column: time of day for absolute Unix times, seconds since the first

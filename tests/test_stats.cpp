@@ -879,12 +879,6 @@ TEST(StatsJsonl, CheckerRejectsBrokenJson) {
 }
 
 TEST(StatsJsonl, StringsAreEscaped) {
-    EXPECT_EQ(json_string("a\"b\\c\n\x01"), R"("a\"b\\c\n\u0001")");
-    EXPECT_EQ(json_string("µW/cm²"), "\"µW/cm²\"");
-    // Not UTF-8 (a Latin-1 file name, a cut sequence, a surrogate): U+FFFD per byte.
-    EXPECT_EQ(json_string("caf\xe9"), "\"caf\xEF\xBF\xBD\"");
-    EXPECT_EQ(json_string("\xc3"), "\"\xEF\xBF\xBD\"");
-    EXPECT_EQ(json_string("\xed\xa0\x80"), "\"\xEF\xBF\xBD\xEF\xBF\xBD\xEF\xBF\xBD\"");
     BusStats s;
     s.begin(SessionInfo{{"we\"ird\n.rtucap", "capture", {}, false, false}, {}, ""});
     s.finish();

@@ -9,7 +9,7 @@
 
 #include "decode_command.hpp"
 #include "profiles_command.hpp"
-#include "output/sinks.hpp"
+#include "output/block_output.hpp"
 #include "sniff_command.hpp"
 
 namespace {

@@ -8,7 +8,7 @@
 
 #include "decode/pdu_decoders.hpp"
 #include "decode/pdu_decoding.hpp"
-#include "util/text_append.hpp"
+#include "util/text.hpp"
 
 namespace rtuscope {
 namespace {

@@ -4,7 +4,7 @@
 
 #include <algorithm>
 
-#include "util/text_append.hpp"
+#include "util/text.hpp"
 
 namespace rtuscope {
 namespace {

@@ -7,7 +7,7 @@
 #include <cerrno>
 #include <cstring>
 
-#include "output/sinks.hpp"
+#include "util/text.hpp"
 
 namespace rtuscope {
 
@@ -23,7 +23,7 @@ std::string capture_line(const Chunk& chunk) {
     }
     if (!chunk.channel.empty()) line += " @" + chunk.channel;
     line += ' ';
-    line += hex_bytes(chunk.bytes, true);
+    append_hex(line, chunk.bytes, true);
     line += '\n';
     return line;
 }

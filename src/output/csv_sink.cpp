@@ -1,6 +1,8 @@
 // The per-frame CSV of DESIGN.md: RFC 4180, the documented columns first in their order.
 #include "output/sinks.hpp"
-#include "util/text_append.hpp"
+#include "output/block_output.hpp"
+#include "output/fields.hpp"
+#include "util/text.hpp"
 
 namespace rtuscope {
 namespace {

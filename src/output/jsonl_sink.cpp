@@ -4,7 +4,9 @@
 // line has the same keys.
 #include "decode/decoder.hpp"
 #include "output/sinks.hpp"
-#include "util/text_append.hpp"
+#include "output/block_output.hpp"
+#include "output/fields.hpp"
+#include "util/text.hpp"
 
 namespace rtuscope {
 namespace {

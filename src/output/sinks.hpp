@@ -1,4 +1,5 @@
-// Stage 5, sinks: annotated text for people, the per-frame CSV of DESIGN.md for machines.
+// Stage 5, sinks: annotated text for people, CSV and JSON Lines for programs
+// (docs/formats.md), all fed one record at a time.
 #pragma once
 
 #include <algorithm>
@@ -29,28 +30,6 @@ std::unique_ptr<RecordSink> make_values_csv_sink(std::FILE* out);
 // fields and the register values; schema in README.md.
 std::unique_ptr<RecordSink> make_jsonl_sink(std::FILE* out);
 
-// Output to `file`, and what stdio holds for it handed to the system. A write the file
-// refuses (a full disk, an I/O error) throws std::system_error ("cannot write the output:
-// ..."), which ends the run: decoding on into an output that is lost would end in a
-// truncated file and exit status 0.
-void write_output(std::FILE* file, std::string_view text);
-void flush_output(std::FILE* file);
-
-// Shared by the sinks, each also as append_*: sinks build every line in one reused
-// string, since a temporary string per field was a large part of a decode's time.
-// "01 03 00 00" (spaced) or "01030000".
-std::string hex_bytes(std::span<const std::uint8_t> bytes, bool spaced);
-void append_hex(std::string& out, std::span<const std::uint8_t> bytes, bool spaced);
-// Seconds with 6 decimals in the input's timebase ("1763798400.022360"); empty if none.
-std::string seconds_text(Nanos time);
-void append_seconds(std::string& out, Nanos time);
-// An RFC 4180 field: quoted when it holds a comma, a quote or a line break.
-std::string csv_field(std::string_view text);
-void append_csv_field(std::string& out, std::string_view text);
-// A JSON string literal, quotes included (RFC 8259 escapes); bytes that are not UTF-8
-// become U+FFFD, as JSON must be UTF-8.
-std::string json_string(std::string_view text);
-void append_json_string(std::string& out, std::string_view text);
 // "3 registers not in the profile".
 void append_unlisted_registers_text(std::string& out, std::size_t count);
 
@@ -108,7 +87,6 @@ class FlagColumns {
 };
 
 // The one-line description of a record, as in the CSV `summary` column.
-std::string record_summary(const Record& record);
 void append_summary(std::string& out, const Record& record);
 
 }  // namespace rtuscope

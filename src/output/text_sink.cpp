@@ -6,7 +6,9 @@
 #include <span>
 
 #include "output/sinks.hpp"
-#include "util/text_append.hpp"
+#include "output/block_output.hpp"
+#include "output/fields.hpp"
+#include "util/text.hpp"
 
 namespace rtuscope {
 namespace {

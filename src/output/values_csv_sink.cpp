@@ -4,7 +4,10 @@
 // good one) and the value's notes.
 #include <fmt/format.h>
 
+#include "output/block_output.hpp"
+#include "output/fields.hpp"
 #include "output/sinks.hpp"
+#include "util/text.hpp"
 
 namespace rtuscope {
 namespace {

@@ -15,7 +15,7 @@
 #include <span>
 #include <string_view>
 
-#include "util/text_append.hpp"
+#include "util/text.hpp"
 
 namespace rtuscope {
 

@@ -9,7 +9,10 @@
 #include <string_view>
 
 #include "decode/decoder.hpp"
+#include "output/block_output.hpp"
+#include "output/fields.hpp"
 #include "output/sinks.hpp"
+#include "util/text.hpp"
 #include "util/io_block.hpp"
 
 namespace rtuscope {
@@ -113,7 +116,9 @@ std::string poll_data_text(const PollKey& key) {
         return fmt::format("0x{:02X}{:02X} x{}", key.data[0], key.data[1],
                            key.data[2] * 256U + key.data[3]);
     }
-    return hex_bytes(std::span(key.data.data(), key.size), true);
+    std::string text;
+    append_hex(text, std::span(key.data.data(), key.size), true);
+    return text;
 }
 
 // Columns padded to their widest cell; `right` marks the numeric ones. `rows(emit)` emits
@@ -279,58 +284,85 @@ void write_csv(const BusStats& stats, Pieces& pieces) {
 }
 
 // The members of a row's JSON object, without the braces.
-std::string json_row(const RowFigures& f) {
+void append_json_row(std::string& out, const RowFigures& f) {
     const FunctionStats& c = *f.counts;
-    std::string codes;
-    for (const auto& [code, n] : c.exception_codes) {
-        codes += fmt::format("{}\"{}\":{}", codes.empty() ? "" : ",", code, n);
+    if (f.key) {
+        fmt::format_to(std::back_inserter(out), "\"slave\":{},\"function\":{},", f.key->first,
+                       f.key->second);
     }
-    std::string out;
-    if (f.key) out += fmt::format("\"slave\":{},\"function\":{},", f.key->first, f.key->second);
-    out += fmt::format(
-        "\"requests\":{},\"answers\":{},\"exceptions\":{},\"exception_codes\":{{{}}},"
-        "\"crc_errors\":{},\"no_answer\":{},\"broadcasts\":{},\"unsolicited\":{},"
+    fmt::format_to(std::back_inserter(out),
+                   "\"requests\":{},\"answers\":{},\"exceptions\":{},\"exception_codes\":{{", c.requests,
+                   c.answers, c.exceptions);
+    bool first = true;
+    for (const auto& [code, n] : c.exception_codes) {
+        fmt::format_to(std::back_inserter(out), "{}\"{}\":{}", first ? "" : ",", code, n);
+        first = false;
+    }
+    fmt::format_to(
+        std::back_inserter(out),
+        "}},\"crc_errors\":{},\"no_answer\":{},\"broadcasts\":{},\"unsolicited\":{},"
         "\"turnarounds\":{},\"turnaround_p50_ms\":{},\"turnaround_p95_ms\":{},"
         "\"turnaround_p99_ms\":{},\"turnaround_max_ms\":{},\"cycle_median_ms\":{},"
         "\"cycle_max_ms\":{},\"turnaround_bin_ms\":{},\"cycle_bin_ms\":{}",
-        c.requests, c.answers, c.exceptions, codes, c.crc_errors, c.no_answer, c.broadcasts,
-        c.unsolicited, c.turnarounds.size(), ms(f.p50, 3, "null"), ms(f.p95, 3, "null"),
-        ms(f.p99, 3, "null"), ms(f.max, 3, "null"), ms(f.cycle_median, 3, "null"),
-        ms(f.cycle_max, 3, "null"), bin_ms(&c.turnarounds, "null"), bin_ms(f.cycles, "null"));
-    return out;
+        c.crc_errors, c.no_answer, c.broadcasts, c.unsolicited, c.turnarounds.size(),
+        ms(f.p50, 3, "null"), ms(f.p95, 3, "null"), ms(f.p99, 3, "null"), ms(f.max, 3, "null"),
+        ms(f.cycle_median, 3, "null"), ms(f.cycle_max, 3, "null"), bin_ms(&c.turnarounds, "null"),
+        bin_ms(f.cycles, "null"));
+}
+
+// A JSON object's `"key":"value"` member with the value as a JSON string.
+void append_json_member(std::string& out, std::string_view key, std::string_view value) {
+    out += '"';
+    out += key;
+    out += "\":";
+    append_json_string(out, value);
 }
 
 void write_jsonl(const BusStats& stats, Pieces& pieces) {
     const SessionInfo& session = stats.session();
     const BusFigures& bus = stats.bus();
-    std::string poll = "null";
-    if (const auto* p = stats.main_poll(std::nullopt); p != nullptr) {
-        poll = fmt::format(
-            "{{\"slave\":{},\"function\":{},\"data\":{},\"requests\":{},\"cycle_median_ms\":{},"
-            "\"cycle_max_ms\":{},\"cycle_bin_ms\":{}}}",
-            p->first.slave, p->first.function,
-            json_string(hex_bytes(std::span(p->first.data.data(), p->first.size), false)),
-            p->second.requests, ms(p->second.cycles.percentile(50), 3, "null"),
-            ms(p->second.cycles.percentile(100), 3, "null"), bin_ms(&p->second.cycles, "null"));
-    }
+    std::string& out = pieces.text();
+    out += "{\"bus\":{";
+    append_json_member(out, "source", session.source.name);
+    out += ',';
+    append_json_member(out, "input_format", session.source.format);
+    out += ',';
+    append_json_member(out, "line", fmt::format("{} {}", session.line.baud, session.line.format()));
+    out += ',';
+    append_json_member(out, "devices", session.devices);
     const std::optional<double> utilisation = stats.utilisation();
-    pieces.text() += fmt::format(
-        "{{\"bus\":{{\"source\":{},\"input_format\":{},\"line\":{},\"devices\":{},"
-        "\"timed\":{},\"duration_s\":{},\"frames\":{},\"bytes\":{},\"noise_runs\":{},"
+    fmt::format_to(
+        std::back_inserter(out),
+        ",\"timed\":{},\"duration_s\":{},\"frames\":{},\"bytes\":{},\"noise_runs\":{},"
         "\"noise_bytes\":{},\"invalid\":{},\"unknown\":{},\"char_time_ms\":{:.6f},"
-        "\"utilisation_pct\":{},\"poll\":{},\"forgotten_polls\":{},\"unlisted_exceptions\":{},"
-        "\"all\":{{{}}}}}}}\n",
-        json_string(session.source.name), json_string(session.source.format),
-        json_string(fmt::format("{} {}", session.line.baud, session.line.format())),
-        json_string(session.devices), stats.timed() ? "true" : "false",
+        "\"utilisation_pct\":{},\"poll\":",
+        stats.timed() ? "true" : "false",
         stats.duration() ? fmt::format("{:.6f}", static_cast<double>(*stats.duration()) / 1e9)
                          : "null",
         bus.frames, bus.bytes, bus.noise_runs, bus.noise_bytes, bus.invalid, bus.unknown,
         static_cast<double>(session.line.char_time()) / 1e6,
-        utilisation ? fmt::format("{:.3f}", *utilisation) : "null", poll, stats.forgotten_polls(),
-        stats.unlisted_exceptions(), json_row(bus_row(stats)));
+        utilisation ? fmt::format("{:.3f}", *utilisation) : "null");
+    if (const auto* p = stats.main_poll(std::nullopt); p != nullptr) {
+        fmt::format_to(std::back_inserter(out), "{{\"slave\":{},\"function\":{},\"data\":\"",
+                       p->first.slave, p->first.function);
+        append_hex(out, std::span(p->first.data.data(), p->first.size), false);
+        fmt::format_to(std::back_inserter(out),
+                       "\",\"requests\":{},\"cycle_median_ms\":{},\"cycle_max_ms\":{},"
+                       "\"cycle_bin_ms\":{}}}",
+                       p->second.requests, ms(p->second.cycles.percentile(50), 3, "null"),
+                       ms(p->second.cycles.percentile(100), 3, "null"),
+                       bin_ms(&p->second.cycles, "null"));
+    } else {
+        out += "null";
+    }
+    fmt::format_to(std::back_inserter(out), ",\"forgotten_polls\":{},\"unlisted_exceptions\":{},\"all\":{{",
+                   stats.forgotten_polls(), stats.unlisted_exceptions());
+    append_json_row(out, bus_row(stats));
+    out += "}}}\n";
     for (const auto& [key, s] : stats.functions()) {
-        pieces.text() += fmt::format("{{{}}}\n", json_row(row_of(stats, key, s)));
+        out += '{';
+        append_json_row(out, row_of(stats, key, s));
+        out += "}\n";
         pieces.line_done();
     }
 }

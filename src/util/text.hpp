@@ -1,8 +1,10 @@
-// Writing numbers and bytes as text without format strings or per-character appends. The
-// decoder and the sinks run once per frame; parsing "{}" and calling std::string's
+// Numbers, bytes and times as text, the one way rtuscope writes them. Text is built by
+// appending to a std::string that keeps its buffer record after record (append_*). The
+// append_* functions are made of write_* functions, which write at `p` (room for their
+// bound) and return the end of what they wrote: the CSV sink writes its rows straight into
+// its output block with them. Hand-tuned, without format strings or per-character appends:
+// the decoder and the sinks run once per frame, and parsing "{}" and std::string's
 // out-of-line push_back for every character were a large part of a decode's time.
-// The write_* functions write at `p`, which must have room for their bound, and return
-// the end of what they wrote.
 #pragma once
 
 #include <fmt/compile.h>
@@ -18,8 +20,6 @@
 #include <string>
 #include <string_view>
 
-#include "util/io_block.hpp"
-#include "output/sinks.hpp"
 #include "util/time.hpp"
 
 namespace rtuscope {
@@ -190,94 +190,17 @@ inline char* write_millis(char* p, Nanos duration, int decimals) {
     return write_digits(p, steps % steps_per_ms, decimals);
 }
 
-// The characters that make an RFC 4180 field need quotes.
-inline constexpr auto kCsvSpecial = [] {
-    std::array<bool, 256> special{};
-    special[','] = special['"'] = special['\r'] = special['\n'] = true;
-    return special;
-}();
-
-inline bool is_csv_special(char c) {
-    return kCsvSpecial[static_cast<unsigned char>(c)];
-}
-
-// Whether any of 16 characters is one of them. Compared as one vector (the compiler's
-// vector extension: SSE2 on x86-64, NEON on ARM), not one by one.
-inline bool holds_csv_special(const char* sixteen) {
-    using Block = char __attribute__((vector_size(16)));
-    Block block;
-    std::memcpy(&block, sixteen, sizeof block);
-    const auto hits = (block == ',') | (block == '"') | (block == '\r') | (block == '\n');
-    std::uint64_t halves[2];
-    std::memcpy(halves, &hits, sizeof halves);
-    return (halves[0] | halves[1]) != 0;
-}
-
-// Writes `text` with its quotes doubled (the inside of a quoted field).
-inline char* write_doubling_quotes(char* p, std::string_view text) {
-    for (const char c : text) {
-        if (c == '"') *p++ = '"';
-        *p++ = c;
-    }
-    return p;
-}
-
-// Copies `text` to `p` and moves `p` past it, unless it holds a character that needs
-// quotes: then false, with what was copied left for the caller to overwrite. Copied 16
-// characters a step while they are looked at: every CSV row's summary goes through here,
-// and a check per character cost more than the copy. The last step overlaps the one
-// before rather than going on one character at a time.
-inline bool copy_if_unquoted(char*& p, std::string_view text) {
-    const char* const s = text.data();
-    const std::size_t n = text.size();
-    if (n < 16) {
-        for (std::size_t i = 0; i < n; ++i) {
-            if (is_csv_special(s[i])) return false;
-            p[i] = s[i];
-        }
-        p += n;
-        return true;
-    }
-    for (std::size_t i = 0;; i += 16) {
-        if (i + 16 > n) i = n - 16;
-        if (holds_csv_special(s + i)) return false;
-        std::memcpy(p + i, s + i, 16);
-        if (i + 16 == n) {
-            p += n;
-            return true;
-        }
-    }
-}
-
-// The RFC 4180 field `first` + " " + `second` (just `first` when `second` is empty),
-// without joining the two first: quoted when either holds a comma, a quote or a line
-// break; at most 2 * (both sizes + 1) + 2 characters.
-inline char* write_csv_field(char* p, std::string_view first, std::string_view second) {
-    char* end = p;
-    if (copy_if_unquoted(end, first)) {
-        if (second.empty()) return end;
-        *end++ = ' ';
-        if (copy_if_unquoted(end, second)) return end;
-    }
-    *p++ = '"';
-    p = write_doubling_quotes(p, first);
-    if (!second.empty()) {
-        *p++ = ' ';
-        p = write_doubling_quotes(p, second);
-    }
-    *p++ = '"';
-    return p;
-}
-
-// An RFC 4180 field, quoted when it holds a comma, a quote or a line break; at most
-// 2 * size + 2 characters.
-inline char* write_csv_field(char* p, std::string_view text) {
-    return write_csv_field(p, text, {});
-}
-
-// Appends through one of the writers above: room for `bound` characters, then trimmed.
+// Appends through one of the writers above, at most `bound` characters: written on the
+// stack and appended in one go when they fit there (one capacity check and one copy per
+// piece), else into room made at the end of `out` and then trimmed.
 template <typename Write>
 void append_with(std::string& out, std::size_t bound, Write write) {
+    constexpr std::size_t kStackChars = 192;
+    if (bound <= kStackChars) {
+        char text[kStackChars];
+        out.append(text, static_cast<std::size_t>(write(text) - text));
+        return;
+    }
     const std::size_t at = out.size();
     out.resize(at + bound);
     char* const end = write(out.data() + at);
@@ -329,70 +252,19 @@ inline void append_hex4(std::string& out, std::uint16_t value) {
     out.append(text, write_hex4(text, value));
 }
 
-// Text a sink builds in memory, handed to its file in blocks: one write per 64 KiB
-// instead of one per record. send() hands over what is pending (the sinks call it on
-// flush(), per record when live, and before anything they print directly).
-class BlockOutput {
-  public:
-    explicit BlockOutput(std::FILE* file) : file_(file) {}
-    BlockOutput(const BlockOutput&) = delete;
-    BlockOutput& operator=(const BlockOutput&) = delete;
-    // Cannot throw here: a failure is left in the file's error indicator, which main
-    // checks before it exits.
-    ~BlockOutput() {
-        if (used_ > 0) std::fwrite(block_.get(), 1, used_, file_);
-    }
+// "01 03 00 00" (spaced) or "01030000".
+inline void append_hex(std::string& out, std::span<const std::uint8_t> bytes, bool spaced) {
+    append_with(out, 3 * bytes.size(), [&](char* p) { return write_hex(p, bytes, spaced); });
+}
 
-    [[nodiscard]] std::FILE* file() const { return file_; }
+// Seconds with 6 decimals in the input's timebase ("1763798400.022360"); nothing if none.
+inline void append_seconds(std::string& out, Nanos time) {
+    append_with(out, kMaxSecondsChars, [&](char* p) { return write_seconds(p, time); });
+}
 
-    // A record written straight into the block: `write` gets where to write, at most
-    // `bound` characters, and returns the end of what it wrote. The room is not filled
-    // first, as a std::string's resize must (a memset of the whole bound per CSV row).
-    template <class Write>
-    void write(std::size_t bound, Write write) {
-        make_room(bound);
-        used_ = static_cast<std::size_t>(write(block_.get() + used_) - block_.get());
-        if (used_ >= kIoBlockBytes) send();
-    }
-
-    // A record composed with std::string's appends (the text and JSONL sinks): line() is
-    // where it goes, record_done() moves it into the block.
-    std::string& line() { return line_; }
-    void record_done() {
-        write(line_.size(), [&](char* p) { return std::copy(line_.begin(), line_.end(), p); });
-        line_.clear();
-    }
-
-    // A write the file refuses throws (see flush_output).
-    void send() {
-        if (used_ == 0) return;
-        const std::size_t pending = used_;
-        used_ = 0;
-        write_output(file_, {block_.get(), pending});
-    }
-    // What is pending, and then what stdio holds, to the system.
-    void flush() {
-        send();
-        flush_output(file_);
-    }
-
-  private:
-    void make_room(std::size_t bound) {
-        if (capacity_ - used_ >= bound) return;
-        // Records are added below kIoBlockBytes (a full block is sent at once), so one block
-        // and a record's bound is all the room there ever is, unless a record is larger.
-        const std::size_t capacity = std::max(kIoBlockBytes, used_) + bound;
-        auto larger = std::make_unique_for_overwrite<char[]>(capacity);
-        if (used_ > 0) std::memcpy(larger.get(), block_.get(), used_);
-        block_ = std::move(larger);
-        capacity_ = capacity;
-    }
-
-    std::FILE* file_;
-    std::unique_ptr<char[]> block_;
-    std::size_t capacity_ = 0;
-    std::size_t used_ = 0;
-    std::string line_;
-};
+// Milliseconds with 2 or 3 decimals ("12.345").
+inline void append_millis(std::string& out, Nanos duration, int decimals) {
+    append_with(out, kMaxMillisChars, [&](char* p) { return write_millis(p, duration, decimals); });
+}
 
 }  // namespace rtuscope
