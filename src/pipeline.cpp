@@ -91,7 +91,7 @@ Status run_pipeline(ChunkSource& source, const PipelineOptions& options, RecordS
         }
         if (!*more) break;
         // Times beyond kMaxTime would overflow the framer's and the pairing's
-        // subtractions (time.hpp; found while fuzzing). Readers may parse them, the
+        // subtractions (time.hpp). Readers may parse them, the
         // stages cannot use them: stop as at a bad line, keeping what came before.
         if (has_time(chunk.time) && (chunk.time > kMaxTime || chunk.time < -kMaxTime)) {
             status = Error{

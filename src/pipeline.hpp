@@ -1,4 +1,4 @@
-// The whole pipeline, source to sink: what `decode` (and later `sniff`) runs.
+// The whole pipeline, source to sink: what `decode` and `sniff` run.
 //   source --chunks--> framer --frames--> transactions --records--> decoder --> sink
 #pragma once
 

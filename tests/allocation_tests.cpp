@@ -1,8 +1,8 @@
 // Allocations on the decoding path: once its buffers have grown to fit the traffic, a
-// decode allocates nothing per frame or per register value (issue #6), whichever output
-// it writes; and the heap it keeps stays bounded on traffic crafted to grow it. This
-// binary replaces the global operator new to count calls and the bytes in use; it is kept
-// apart from rtuscope_tests, whose sanitizer build keeps the sanitizers' own operator new.
+// decode allocates nothing per frame or per register value, whichever output it writes;
+// and the heap it keeps stays bounded on traffic crafted to grow it. This binary replaces
+// the global operator new to count calls and the bytes in use; it is kept apart from
+// rtuscope_tests, whose sanitizer build keeps the sanitizers' own operator new.
 #include <gtest/gtest.h>
 #include <malloc.h>
 
@@ -300,12 +300,12 @@ TEST(Allocations, NonePerSkippedLineOfAHexLog) {
         "hex log");
 }
 
-// Peak RSS below 32 MiB whatever the capture (issue #6): the pairing stage keeps a few
-// records' buffers, not one per slot a wait once grew. A read nobody answers, 200 frames
-// held behind it, then 400 writes of 1,968 coils to the relay controller that go
-// unanswered too (a master retrying a dead slave): each write's values are ~500 KB.
-// Their records went round all 256 slots the wait had grown, each keeping its values:
-// 130 MB. A few records' worth now.
+// Peak RSS below 32 MiB whatever the capture: the pairing stage keeps a few records'
+// buffers, not one per slot a wait once grew. A read nobody answers, 200 frames held
+// behind it, then 400 writes of 1,968 coils to the relay controller that go unanswered
+// too (a master retrying a dead slave): each write's values are ~500 KB, and their records
+// go round all 256 slots the wait has grown. Guards against every slot keeping its values:
+// the heap stays within a few records' worth.
 TEST(Memory, UnansweredLargeWritesAfterAWaitKeepAFewRecords) {
     std::vector<Bytes> frames;
     frames.push_back(test::with_crc({9, 0x03, 0x00, 0x00, 0x00, 0x01}));
@@ -320,8 +320,8 @@ TEST(Memory, UnansweredLargeWritesAfterAWaitKeepAFewRecords) {
 }
 
 // A table of durations (a row's turnarounds, a poll's cycles) keeps to ~22 KiB however
-// many values come (stats.hpp): bins, and a batch of values waiting to be counted. While a
-// batch is counted, the old and the merged bins live at once: twice that, briefly.
+// many values come (durations.hpp): bins, and a batch of values waiting to be counted.
+// While a batch is counted, the old and the merged bins live at once: twice that, briefly.
 TEST(Memory, ADurationTableKeepsToItsBoundHoweverManyValues) {
     for (const int values : {1'000, 300'000}) {
         const std::size_t heap_before = g_heap_bytes;
@@ -380,10 +380,10 @@ class DurationSets {
 };
 
 // Sets that held 1,024 bins each while they were few give the room back when more sets
-// come and the share drops (stats.hpp: BusStats::kBinBudget). 512 sets of 1,100 values
-// (1,024 bins each: 9.6 MB alone) and many of 20, which bring the share down: the heap
-// kept at the end is no larger than if the large sets had come last, when the share was
-// already down. For rows' turnarounds and for polls' cycles.
+// come and the share drops (bus_stats.hpp: BusStats::kBinBudget). 512 sets of 1,100
+// values (1,024 bins each: 9.6 MB alone) and many of 20, which bring the share down: the
+// heap kept at the end is no larger than if the large sets had come last, when the share
+// was already down. For rows' turnarounds and for polls' cycles.
 TEST(Memory, StatsGiveBackTheRoomOfALargerShare) {
     for (const bool polls : {false, true}) {
         const DurationSets sets(polls);

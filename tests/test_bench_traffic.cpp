@@ -35,7 +35,7 @@ struct Generated {
 };
 
 // RTUSCOPE_SEED=N in the environment generates another seed's traffic: the tests must
-// pass on any (stop 37 ran seeds 1-48; before, seed 1 passed by luck, 2-4 did not).
+// pass on any seed, not on the default one by luck.
 Generated generate(std::uint64_t frames, std::uint32_t baud, bool per_byte) {
     Generated g;
     const char* seed_env = std::getenv("RTUSCOPE_SEED");
@@ -198,7 +198,7 @@ TEST_P(BenchTraffic, DecodesToWhatWasSent) {
     // always tell these after a poll to the same slave and function that was left open (no
     // answer, or a frame damaged): its next request may pass for the answer. Through a run
     // of such polls answered by echoes the reading then stays one frame off. Those polls
-    // are left out, as are damaged ones (README, "How frames are found").
+    // are left out, as are damaged ones (docs/formats.md, "How frames are found and paired").
     const std::vector<Poll> polls = polls_of(g.sent);
     std::size_t checked = 0;
     auto found = [&](const SentFrame* frame) {
@@ -258,7 +258,7 @@ INSTANTIATE_TEST_SUITE_P(
                       Case{9600, InputFormat::capture, true}),
     [](const ::testing::TestParamInfo<Case>& param) { return name_of(param.param); });
 
-// What issue #6 asks of the traffic, as generated: the four seed devices and standard
+// What the benchmarks need of the traffic, as generated: the four seed devices and standard
 // devices, each kind of trouble a field line has, and an adapter's batches (at most 64
 // bytes, a request and its answer sometimes in one) or, per byte, a logic analyser's
 // timing. Shares are checked within about half and twice what the generator aims at.

@@ -348,7 +348,7 @@ TEST(LivePipeline, RecordsAreFlushedWhileTheLineRunsAndTheCaptureMatches) {
     Collect again(nullptr);
     ASSERT_TRUE(run_pipeline(**offline, {}, again));
     ASSERT_EQ(again.records.size(), 2U);
-    EXPECT_EQ(again.flushes, 0);  // a file's decode writes in large blocks (issue #6)
+    EXPECT_EQ(again.flushes, 0);  // a file's decode writes in large blocks
     for (std::size_t i = 0; i < 2; ++i) {
         EXPECT_EQ(again.records[i].frame.bytes, sink.records[i].frame.bytes);
         EXPECT_EQ(again.records[i].frame.start, sink.records[i].frame.start);

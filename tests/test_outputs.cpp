@@ -151,7 +151,8 @@ TEST(Text, TimeColumnAbsoluteRelativeAndDelta) {
 }
 
 // The latency is written without floating point; it must read exactly as fmt's rounding
-// of ns / 1e6 had it (3 decimals in CSV, 2 in text), halfway cases and signs included.
+// of ns / 1e6 would have it (3 decimals in CSV, 2 in text), halfway cases and signs
+// included.
 TEST(Outputs, LatencyReadsAsFmtRoundsTheMilliseconds) {
     std::vector<Nanos> latencies = {0,
                                     1,
@@ -423,9 +424,9 @@ std::string answered_reads(int polls) {
     return test::raw_dump(frames);
 }
 
-// A decode hands its output to the file in blocks of 64 KiB (issue #6: one write per record
-// would cost a system call each when stdout is unbuffered or a terminal), not a record at a
-// time, whatever buffering the file has.
+// A decode hands its output to the file in blocks of 64 KiB (one write per record would
+// cost a system call each when stdout is unbuffered or a terminal), not a record at a time,
+// whatever buffering the file has.
 TEST(Outputs, RecordsReachTheFileInLargeBlocks) {
     constexpr int kPolls = 2000;
     constexpr std::size_t kBlock = 64 << 10;

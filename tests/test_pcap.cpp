@@ -328,7 +328,7 @@ TEST(PcapWriter, TsharkDecodesFunctionCodesDirectionsAndBadCrc) {
     TempDir dir;
     const std::string path = dir.file("out.pcap");
     write_records(path, sample_records());
-    // The options pcap.hpp documents: 502 as the mbrtu port (query/response from the
+    // The options pcap_writer.hpp documents: 502 as the mbrtu port (query/response from the
     // ports) and CRC checking.
     const std::string out =
         run("tshark -r '" + path +

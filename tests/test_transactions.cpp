@@ -271,9 +271,9 @@ Bytes repeated(const std::vector<Bytes>& frames, int times) {
 }
 
 // A long wait grows the slots of held records to thousands. The traffic after it must go
-// back to a few: going through all of them, it left each one holding the buffers of the
-// largest record it had carried (a raw dump of such a wait followed by 2,000-coil reads
-// took a decode with a profile to 1.9 GB).
+// back to a few: going through all of them, it would leave each one holding the buffers of
+// the largest record it carried (with a profile, ~500 KB for a 2,000-coil read: gigabytes
+// over thousands of slots).
 TEST(Transactions, AfterALongWaitRecordsReuseTheFirstSlotsAgain) {
     constexpr int kPolls = 1000;
     const AfterTheWait after = after_the_longest_wait(repeated({kRead, kReadAnswer}, kPolls));
@@ -286,8 +286,8 @@ TEST(Transactions, AfterALongWaitRecordsReuseTheFirstSlotsAgain) {
 }
 
 // Unanswered requests each hold only themselves until the next one comes, so something
-// is always held: they went through every slot too (1 GB for a 0.5 MB dump of unanswered
-// 1,968-coil writes after a wait, decoded with a profile).
+// is always held: they too must reuse the first slots, not step through every slot the
+// wait has grown (with large writes decoded with a profile, each would keep ~500 KB).
 TEST(Transactions, AfterALongWaitUnansweredRequestsReuseTheFirstSlotsToo) {
     constexpr int kRetries = 1000;
     const Bytes other_read = with_crc({0x03, 0x03, 0x00, 0x10, 0x00, 0x01});

@@ -59,7 +59,7 @@ void add_output_options(CLI::App& cmd, OutputArgs& args) {
                                 "instead of text");
     values->excludes(csv);
     cmd.add_flag("--jsonl", args.jsonl,
-                 "Print one JSON object per record (JSON Lines; schema in the README)")
+                 "Print one JSON object per record (JSON Lines; schema in docs/formats.md)")
         ->excludes(csv)
         ->excludes(values);
     cmd.add_option("--pcap", args.pcap_file,
@@ -145,10 +145,9 @@ std::optional<Decoding> prepare_decoding(const OutputArgs& args, int& exit_code)
 
     // A file or a pipe takes the output in large blocks (a terminal keeps its lines); live
     // runs flush after every record anyway. 64 KiB, as the sinks' own blocks: a larger
-    // buffer saved no more time (1 MiB: the same, and 0.9 MiB more RSS). glibc takes the
-    // size only with a buffer to go with it (given none, it kept its 4 KiB: the values CSV
-    // went out in 4 KiB writes). The buffer is static, with nothing to destroy: stdio
-    // flushes it after static destructors.
+    // buffer saves no more time (1 MiB: the same, and 0.9 MiB more RSS). glibc takes the
+    // size only with a buffer to go with it (given none, it keeps its 4 KiB). The buffer
+    // is static, with nothing to destroy: stdio flushes it after static destructors.
     if (!isatty(STDOUT_FILENO)) {
         static std::array<char, kIoBlockBytes> stdout_buffer;
         std::setvbuf(stdout, stdout_buffer.data(), _IOFBF, stdout_buffer.size());

@@ -128,8 +128,8 @@ inline CrcCheck crc_check_of(std::span<const std::uint8_t> frame, std::uint16_t 
 }
 
 // A frame of fewer than 3 bytes cannot carry a CRC and checks as bad. Inline: returned
-// from a call, the 6-byte result was packed through the stack and read back whole, a
-// store-forwarding stall that cost more than the CRC of a short frame.
+// from a call, the 6-byte result is packed through the stack and read back whole, a
+// store-forwarding stall that costs more than the CRC of a short frame.
 inline CrcCheck check_crc(std::span<const std::uint8_t> frame) {
     if (frame.size() < 3) {
         CrcCheck check;

@@ -15,8 +15,8 @@ constexpr std::uint16_t kFixed = 0x7FFF;  // place of a fixed point (no cycle pl
 using Places = std::array<std::uint16_t, 65536>;
 
 // Walks both cycles once, at compile time: 128 KiB of read-only data, paged in only by
-// inputs with lengths to search (a table made at run time cost a decode ~1 M
-// instructions and its page faults as soon as one search was indexed).
+// inputs with lengths to search (a table made at run time costs a decode ~1 M
+// instructions and its page faults as soon as one search is indexed).
 constexpr Places make_places() {
     // kCrcTables is not a constant in this file: its byte table made again.
     constexpr auto byte_table = detail::make_crc_byte_table();
@@ -104,7 +104,7 @@ void CrcEndIndex::index_to(std::span<const std::uint8_t> bytes, std::size_t to) 
         ++i;
         if (++shift == kCycle) shift = 0;
     };
-    // Four bytes a step, as the CRC search did: each step waits only for the one before.
+    // Four bytes a step, as in find_directly: each step waits only for the one before.
     while (i + 4 <= want) {
         const auto runs = crc16_modbus_each_of_4(reg, &bytes[from_ + i - 1]);
         for (const std::uint16_t run : runs) add(run);

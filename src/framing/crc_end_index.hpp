@@ -144,8 +144,8 @@ class CrcEndIndex {
     static constexpr std::size_t kMaxWindow = 255;
 
     // Whether a key in [from, to) may equal `target`: false only when none does. Through
-    // garbage nearly every search finds nothing, and a scan of up to 253 keys per byte was
-    // most of the framer's work there; a count per key value over a window of the keys
+    // garbage nearly every search finds nothing, and a scan of up to 253 keys per byte would
+    // be most of the framer's work there; a count per key value over a window of the keys
     // that slides along with the searches answers it by one look. A search that starts
     // before the window or past its end starts it afresh there; one longer than a window
     // can be is answered "may" and scanned.

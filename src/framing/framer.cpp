@@ -66,7 +66,7 @@ int crc_rank(CrcStatus status) {
 // The reading at the start of `head` when the CRCs alone settle it: each reading's length
 // is in hand (or it has none) and exactly one checks best. Most positions are like that;
 // the rest go through attempt_at's general rules. Inlined: returned from a call, the
-// result came back through the stack and stalled its reader (as check_crc's did).
+// result would come back through the stack and stall its reader (as check_crc's would).
 struct PlainReading {
     bool decided = false;  // false: the general rules must decide
     bool found = false;    // decided: a reading checks (else no frame starts here)
@@ -148,8 +148,8 @@ std::uint32_t Framer::channel_number(const std::string& name) {
 
 void Framer::forget_unused_channels() {
     // Only the buffered chunks' channels are still needed. A tap has two; a crafted
-    // capture may name millions (and their number overflowed the pieces' 16-bit index at
-    // 65,536: frames were given another channel's name).
+    // capture may name millions, which must neither grow the table without end nor
+    // outnumber the pieces' channel index (a frame would be given another channel's name).
     constexpr std::uint32_t kUnused = ~std::uint32_t{0};
     std::vector<std::uint32_t> renumbered(channels_.size(), kUnused);
     std::vector<std::string> kept;
@@ -267,8 +267,8 @@ Nanos Framer::byte_end(const Piece& p, std::size_t at) const {
     // Spread evenly over the chunk, its last byte ending at the chunk's time:
     // first_start + span * (i + 1) / n. With span = step * n + step_remainder that is
     // step * (i + 1) + step_remainder * (i + 1) / n, whose division is of numbers below
-    // n * n, not of nanoseconds: a 64-bit division per frame was a measurable part of a
-    // decode, a 32-bit one is several times cheaper.
+    // n * n, not of nanoseconds: a 64-bit division per frame is a measurable part of a
+    // decode's time, a 32-bit one is several times cheaper.
     const auto i = static_cast<Nanos>(base_ + at - p.first);
     if (i == 0) return p.first_start + p.step;
     const auto n = static_cast<Nanos>(p.end - p.first);
@@ -527,7 +527,7 @@ void Framer::decide(bool at_end) {
         // before they have (slow lines hand frames over in many small chunks).
         if (!at_end && base_ + pos_ == waiting_at_ && bytes_.size() - pos_ < waiting_for_) break;
         // Through garbage that comes a byte at a time, the position stays put while the
-        // scan for the next frame waits ahead of it (scan_hint_): it was tried once, not at
+        // scan for the next frame waits ahead of it (scan_hint_): it is tried once, not at
         // every byte.
         if (at_end || scan_hint_ <= pos_) {
             const Attempt here = attempt_at(pos_, at_end);

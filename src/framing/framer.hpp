@@ -111,7 +111,7 @@ class Framer {
               Delimiter delimiter, CrcCheck crc, const Note* note = nullptr);
 
     // One pushed chunk: what is known of its bytes' timing. Kept per chunk, not per byte:
-    // with seven per-byte arrays the bookkeeping cost more than the framing.
+    // per-byte arrays make the bookkeeping cost more than the framing.
     struct Piece {
         std::uint64_t first = 0;      // stream index of its first byte (base_ + buffer index)
         std::uint64_t end = 0;        // stream index just past its last byte
@@ -168,7 +168,7 @@ class Framer {
     std::vector<Piece> pieces_;           // the chunks the buffered bytes came in, in order
     mutable std::size_t piece_hint_ = 0;  // where piece_of last looked: lookups go forward
     // The stream indices of the buffered chunks' first bytes after a silence that ends a
-    // frame, in order: searched for the next gap, where walking the chunks cost up to a
+    // frame, in order: searched for the next gap, where walking the chunks costs up to a
     // frame's length of steps at every byte of per-byte captures.
     std::vector<std::uint64_t> frame_gaps_;
     // Bytes the UART flagged (parity/framing), as buffer indices in increasing order. Rare,

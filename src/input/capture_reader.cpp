@@ -1,4 +1,4 @@
-// Capture reader: the native text capture format v1 (DESIGN.md, "Native capture format").
+// Capture reader: the native text capture format v1 (docs/formats.md, "Native capture format").
 //
 //   # rtuscope capture v1
 //   # serial 9600 8N1
@@ -52,7 +52,7 @@ enum class TimeParse : std::uint8_t { ok, bad, too_precise, out_of_range };
 
 // The eight ASCII digits at `p` as a number, or false if one of them is no digit. A
 // timestamp has 16 to 19 digits; taking them eight at a time saves most of a per-digit
-// loop that cost more than the rest of the line but its hex bytes. Only on
+// loop that costs more than the rest of the line but its hex bytes. Only on
 // little-endian machines, where the first digit is the lowest byte; elsewhere the
 // per-digit loops do it all.
 bool eight_digits(const char* p, std::uint64_t& value) {
@@ -77,7 +77,7 @@ bool eight_digits(const char* p, std::uint64_t& value) {
 
 // The timestamp at the start of `text`, which runs to its end or to a space; `length`
 // is set to the timestamp's length. Parsed where it lies: finding the token's end first
-// was a pass over every line for nothing.
+// would be a pass over every line for nothing.
 TimeParse parse_seconds(std::string_view text, Nanos& out, std::size_t& length) {
     constexpr std::int64_t kMaxSeconds = std::numeric_limits<Nanos>::max() / kNanosPerSecond;
     constexpr std::int64_t kMaxFraction = std::numeric_limits<Nanos>::max() % kNanosPerSecond;
@@ -406,9 +406,9 @@ class CaptureReader final : public ChunkSource {
         }
         // Every byte takes two digits and a separator (none after the last): this bounds
         // the count. The bytes of the last line are kept and only what is missing is
-        // added: growing a vector zeroes the new part, and clearing first made that a
+        // added: growing a vector zeroes the new part, and clearing first would make that a
         // memset of the whole bound on every line. The loops work on local pointers:
-        // stores through a uint8_t pointer may alias anything, and made the compiler
+        // stores through a uint8_t pointer may alias anything, and would make the compiler
         // reload the line's bounds every byte.
         const std::size_t most_bytes = (line.size() - i + 1) / 3;
         if (out.bytes.size() < most_bytes) out.bytes.resize(most_bytes);
@@ -418,7 +418,7 @@ class CaptureReader final : public ChunkSource {
         const char* const end = line.data() + line.size();
         // The usual "XX XX ... XX" with no bounds check but the loops': eight bytes at a
         // time (one check of their digits, one of their separators), then one at a time.
-        // The last loop checks every byte's bounds and separators, and cost more than the
+        // The last loop checks every byte's bounds and separators, and costs more than the
         // digits. It takes over at the first byte these do not take (another separator,
         // a bad digit, the last byte), after the spaces it would have skipped.
         while (end - p >= 24) {

@@ -1,5 +1,5 @@
 // Stage 1, sources: everything that delivers bytes (capture files, raw dumps, hex logs,
-// later a tty or pcap) delivers Chunks through the ChunkSource interface.
+// pcap files, a tty) delivers Chunks through the ChunkSource interface.
 #pragma once
 
 #include <cstdint>
@@ -28,7 +28,7 @@ struct Chunk {
 // What a source knows about itself once its header (if any) has been read.
 struct SourceInfo {
     std::string name;                  // file name for messages, "-" for stdin
-    std::string format;                // "capture", "raw", "hex"
+    std::string format;                // "capture", "raw", "hex", "pcap", "live"
     std::optional<LineSettings> line;  // from the capture header, if it has one
     bool timed = false;                // chunks carry times
     bool chunk_is_frame = false;       // hex logs: each line is exactly one frame

@@ -286,7 +286,7 @@ bool date_time_at(std::string_view s, std::size_t i, Nanos& out) {
     if (!digits_at(s, i + 5, 2, mo) || !digits_at(s, i + 8, 2, d)) return false;
     if (mo < 1 || mo > 12 || d < 1 || d > 31) return false;
     // Times are bounded by kMaxTime (up to the year 2112, see time.hpp); a date outside
-    // is no timestamp this reader can keep (found by fuzzing: year 4565 overflowed).
+    // is no timestamp this reader can keep, and a far later one would overflow.
     if (y < 1900 || y > 2111) return false;
     const char between = s[i + 10];
     if (between != ' ' && between != 'T' && between != '_') return false;

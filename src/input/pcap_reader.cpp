@@ -297,9 +297,9 @@ class PcapSource final : public ChunkSource {
                 continue;
             }
             // The file was opened with nanosecond precision: tv_usec holds nanoseconds.
-            // pcapng timestamps are 64 bits in a unit the file chooses, so the seconds
-            // libpcap derives need not fit in 64-bit nanoseconds (found by fuzzing: signed
-            // overflow here). A time beyond kMaxTime is an error, as in a capture v1 text.
+            // pcapng timestamps are 64 bits in a unit the file chooses: the seconds libpcap
+            // derives need not fit in 64-bit nanoseconds, so the conversion checks for
+            // overflow. A time beyond kMaxTime is an error, as in a capture v1 text.
             Nanos time = 0;
             if (__builtin_mul_overflow(static_cast<Nanos>(header->ts.tv_sec), kNanosPerSecond,
                                        &time) ||
@@ -370,7 +370,7 @@ Result<std::unique_ptr<ChunkSource>> pcap_source_from_stream(std::string head, s
                                                              bool close_rest, std::string name) {
     // A file of ours whose head was read from its own start (it stands just past the head)
     // and that can go back there is libpcap's to read as it is: through the chain below,
-    // every packet's reads took glibc's slow generic path.
+    // every packet's reads would take glibc's slow generic path.
     std::FILE* stream = nullptr;
     const long position = rest != nullptr ? std::ftell(rest) : -1;
     if (close_rest && position >= 0 && static_cast<std::size_t>(position) == head.size() &&
@@ -387,8 +387,8 @@ Result<std::unique_ptr<ChunkSource>> pcap_source_from_stream(std::string head, s
         }
     }
     // libpcap reads each packet with two small freads: with stdio's own 4 KiB buffer, a
-    // read() every ~60 packets of ours (docs/performance.md, stop 51). Set before libpcap's
-    // first read; the file taken as it is was seeked back to its start, its buffer empty.
+    // read() every ~60 packets of ours. Set before libpcap's first read; the file taken
+    // as it is has been seeked back to its start, its buffer empty.
     auto read_buffer = give_stdio_buffer(stream);
     char errbuf[PCAP_ERRBUF_SIZE] = {};
     pcap_t* pcap =

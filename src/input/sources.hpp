@@ -1,5 +1,5 @@
 // Stage 1, sources: readers for the input formats rtuscope decodes offline.
-//   capture: the native text capture format v1 (DESIGN.md), timed chunks;
+//   capture: the native text capture format v1 (docs/formats.md), timed chunks;
 //   raw:     bytes only, no timing (cat /dev/ttyUSB0 > dump.bin);
 //   hex:     one frame per line in hex, as manuals and serial-terminal logs show them;
 //   pcap:    pcap and pcapng files, one frame per packet (pcap.hpp).

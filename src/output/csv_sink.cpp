@@ -1,4 +1,4 @@
-// The per-frame CSV of DESIGN.md: RFC 4180, the documented columns first in their order.
+// The per-frame CSV of docs/formats.md: RFC 4180, the documented columns first in their order.
 #include "output/sinks.hpp"
 #include "output/block_output.hpp"
 #include "output/fields.hpp"

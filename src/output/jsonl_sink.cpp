@@ -1,5 +1,5 @@
 // --jsonl: one JSON object per record, for log pipelines (Fluent Bit, Vector, Kafka
-// consumers). The schema is documented in README.md ("JSON Lines"); keys are only ever
+// consumers). The schema is documented in docs/formats.md ("JSON Lines"); keys are only ever
 // added, never renamed or retyped. Unknown values are null, never omitted, so that every
 // line has the same keys.
 #include "decode/decoder.hpp"

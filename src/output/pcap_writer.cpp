@@ -125,8 +125,7 @@ void append_pcap_packet(std::vector<std::uint8_t>& out, const Record& record) {
 PcapSink::PcapSink(std::FILE* file, std::string path)
     : file_(file),
       path_(std::move(path)),
-      // Before any write. stdio's own 4 KiB made a write() of every ~60 packets
-      // (docs/performance.md, stop 51).
+      // Before any write: stdio's own 4 KiB would make a write() every ~60 packets.
       write_buffer_(give_stdio_buffer(file)) {}
 
 PcapSink::~PcapSink() {

@@ -27,7 +27,7 @@ std::unique_ptr<RecordSink> make_csv_sink(std::FILE* out);
 // One row per register value (records without a profile give none).
 std::unique_ptr<RecordSink> make_values_csv_sink(std::FILE* out);
 // One JSON object per record (JSON Lines): the per-frame CSV's fields, the decoded
-// fields and the register values; schema in README.md.
+// fields and the register values; schema in docs/formats.md.
 std::unique_ptr<RecordSink> make_jsonl_sink(std::FILE* out);
 
 // "3 registers not in the profile".
@@ -37,7 +37,7 @@ void append_unlisted_registers_text(std::string& out, std::size_t count);
 // anomalies ("name: text"; so that filtering by flag finds a value out of range without
 // the values CSV), then the registers the profile does not list, only counted;
 // `ids` lists each id once, `texts` every text. Built in strings reused record after
-// record (a list of strings per record was a large part of decoding with profiles);
+// record (a list of strings per record would be a large part of decoding with profiles);
 // `write(out, item)` writes one item (as it is for the CSV, as a JSON string for JSONL),
 // after the separator when it is not the first.
 class FlagColumns {

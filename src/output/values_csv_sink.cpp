@@ -1,4 +1,4 @@
-// One CSV row per register value (--values-csv): the columns of issue #3 first
+// One CSV row per register value (--values-csv): the value's own columns first
 // (time,slave,profile,address,name,value,unit,raw), then the record it came from (its
 // number, kind and CRC status, so that a value from a damaged frame is never taken for a
 // good one) and the value's notes.
@@ -24,7 +24,7 @@ class ValuesCsvSink final : public RecordSink {
     void record(const Record& r) override {
         // Each row is built in the same strings, which keep their room: a row allocates
         // nothing once the longest has been written. Appended piece by piece (`"..." +
-        // std::string` drew a false -Wrestrict from GCC 12 at -O3).
+        // std::string` draws a false -Wrestrict from GCC 12 at -O3).
         for (const DecodedValue& v : r.values) {
             ids_.clear();
             texts_.clear();

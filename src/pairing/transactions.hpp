@@ -51,8 +51,8 @@ struct Record {
 // Frames, and their bytes, held back behind an awaited request, at most. A Modbus answer
 // follows its request at once, so one this far behind is none; and where nothing else
 // bounds the wait (a raw dump has no times, --timeout may be long) a request followed by
-// millions of other slaves' answers held them all (1.4 GB for a 14 MB dump), and 4,096
-// frames of a pcap or hex log can be 256 KB each.
+// millions of other slaves' answers would hold them all, many times the dump's size; and
+// 4,096 frames of a pcap or hex log can be 256 KB each.
 inline constexpr std::size_t kMaxFramesAwaiting = 4096;
 inline constexpr std::size_t kMaxBytesAwaiting = std::size_t{1} << 20;
 

@@ -46,7 +46,7 @@ class Bus {
     void set_line(LineSettings line) { line_ = line; }
 
   private:
-    // Every known profile, the bundled ones first. Parsing those was a third of start-up,
+    // Every known profile, the bundled ones first. Parsing those is a third of start-up,
     // and most decodes name no device: they are parsed here, on first use.
     std::deque<Profile>& known() const;
 
@@ -54,8 +54,8 @@ class Bus {
     mutable bool bundled_added_ = false;
     std::array<const Profile*, 256> by_address_{};
     // owner() of every address, worked out whenever the map or a profile changes: it is
-    // asked several times per frame, and searching the map each time made decoding with
-    // profiles several times slower than without.
+    // asked several times per frame, and searching the map each time would make decoding
+    // with profiles several times slower than without.
     std::array<const Profile*, 256> owners_{};
     void update_owners();
     std::optional<LineSettings> line_;

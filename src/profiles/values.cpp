@@ -36,7 +36,7 @@ bool is_integer_type(ValueType type) {
 }
 
 // Each value of a device read shows its words and its number: written directly, not
-// through format strings, which were most of the cost of decoding with a profile. They
+// through format strings, which would be most of the cost of decoding with a profile. They
 // are appended to the value's own (emptied) strings, whose buffers are reused record
 // after record (reused_list.hpp).
 void append_hex_words(std::string& out, Words words) {
@@ -126,7 +126,7 @@ NumberStyle style_for(const Register& reg, bool bit_table) {
     return {NumberStyle::Kind::shortest_double, 0};
 }
 
-// Compiled format strings: parsing them at run time cost as much as formatting the number.
+// Compiled format strings: parsing them at run time costs as much as formatting the number.
 void append_number(std::string& out, double value, const NumberStyle& style) {
     const std::size_t from = out.size();
     auto to = std::back_inserter(out);
@@ -278,7 +278,7 @@ void note_access_mismatch(const Register& reg, bool write, DecodedValue& v) {
 }
 
 // The functions below fill `v`, an empty value already in its place at the end of the
-// record's list, writing into its strings (built elsewhere and moved in, they were a
+// record's list, writing into its strings (built elsewhere and moved in, they would be a
 // copy each, and an allocation).
 void unlisted(std::uint16_t address, std::uint16_t word, bool bit_table, DecodedValue& v) {
     v.address = address;

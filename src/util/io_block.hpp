@@ -1,6 +1,6 @@
 // The block in which rtuscope reads its input and writes its output: 64 KiB. stdio's own
 // buffer is a file's block size (4 KiB), a system call every few KiB; 1 MiB for stdout
-// gained nothing more and cost 0.9 MiB of RSS (docs/performance.md, "stdout's buffer").
+// gains nothing more and costs 0.9 MiB of RSS.
 #pragma once
 
 #include <cstddef>

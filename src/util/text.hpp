@@ -4,7 +4,7 @@
 // bound) and return the end of what they wrote: the CSV sink writes its rows straight into
 // its output block with them. Hand-tuned, without format strings or per-character appends:
 // the decoder and the sinks run once per frame, and parsing "{}" and std::string's
-// out-of-line push_back for every character were a large part of a decode's time.
+// out-of-line push_back for every character would be a large part of a decode's time.
 #pragma once
 
 #include <fmt/compile.h>
@@ -38,7 +38,7 @@ inline constexpr auto kTwoDigits = [] {
 
 inline char* write_uint(char* p, std::uint64_t value) {
     // Slave addresses, function codes, counts: most numbers written are small, and fmt's
-    // general path cost several times what these two cases do.
+    // general path costs several times what these two cases do.
     if (value < 10) {
         *p = static_cast<char>('0' + value);
         return p + 1;
@@ -60,7 +60,7 @@ inline char* write_digits(char* p, std::uint64_t value, int digits) {
 }
 
 // Short texts (names, kinds) are copied here in at most two overlapping moves: a call to
-// memcpy for a few bytes cost more than the copy, and its size checks mispredicted.
+// memcpy for a few bytes costs more than the copy, and its size checks mispredict.
 inline char* write_text(char* p, std::string_view text) {
     const char* s = text.data();
     const std::size_t n = text.size();

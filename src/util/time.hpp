@@ -13,8 +13,8 @@ inline constexpr Nanos kNanosPerSecond = 1'000'000'000;
 // The latest time (and, negated, the earliest) the pipeline decodes: about 142 years
 // either side of zero, i.e. up to the year 2112 in Unix time. Bounded so that the
 // difference of any two times (gaps, turnarounds, timeouts) fits in 64 bits: with the
-// full range, a capture going from a very negative to a very positive time overflowed the
-// framer's subtraction (found while fuzzing). run_pipeline stops with an error there.
+// full range, a capture going from a very negative to a very positive time would overflow
+// the framer's subtraction. run_pipeline stops with an error there.
 inline constexpr Nanos kMaxTime = 4'500'000'000 * kNanosPerSecond;
 
 inline constexpr bool has_time(Nanos t) {

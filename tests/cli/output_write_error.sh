@@ -2,7 +2,7 @@
 # An output the system refuses (here /dev/full: "No space left on device") ends the run
 # with one line on stderr and exit status 1, for every output format, whether the
 # refusal comes at the end (a small output, still in stdio's buffer) or mid-run (an
-# output larger than that buffer). Before, a full disk left a truncated file and exit 0.
+# output larger than that buffer). A full disk must not pass for a complete output.
 # Usage: output_write_error.sh RTUSCOPE   (from the source directory)
 set -uo pipefail
 rtuscope=$1
@@ -26,7 +26,7 @@ check decode "$small" --values-csv --device 1=pdu485
 check stats "$small"
 check stats "$small" --csv
 
-# More than stdio's 1 MiB buffer: the refusal comes while records are still being
+# Far more than stdout's 64 KiB buffer: the refusal comes while records are still being
 # decoded (the same capture 200 times over, ~2.3 MB of JSON Lines).
 big=$(mktemp)
 trap 'rm -f "$big"' EXIT
