@@ -65,8 +65,7 @@ int crc_rank(CrcStatus status) {
 
 // The reading at the start of `head` when the CRCs alone settle it: each reading's length
 // is in hand (or it has none) and exactly one checks best. Most positions are like that;
-// the rest go through attempt_at's general rules. Inlined: returned from a call, the
-// result would come back through the stack and stall its reader (as check_crc's would).
+// the rest go through attempt_at's general rules.
 struct PlainReading {
     bool decided = false;  // false: the general rules must decide
     bool found = false;    // decided: a reading checks (else no frame starts here)
@@ -78,7 +77,7 @@ struct PlainReading {
     std::uint16_t expected_crc = 0;  // of its bytes before the last two; the caller checks
 };
 
-[[gnu::always_inline]] inline PlainReading plain_reading(std::span<const std::uint8_t> head,
+PlainReading plain_reading(std::span<const std::uint8_t> head,
                                                          const FrameLengths& lengths) {
     PlainReading result;
     const FrameLength& request = lengths.request;

@@ -38,9 +38,9 @@ class CsvSink final : public RecordSink {
                                   2 * carried.size() + 2 + 2 * flags_.ids.size() +
                                   2 * flags_.texts.size() + 6;
         out_.write(bound, [&](char* p) {
-            p = numbers_.write(p, r.number);
+            p = write_uint(p, r.number);
             *p++ = ',';
-            p = seconds_.write(p, r.frame.start);
+            p = write_seconds(p, r.frame.start);
             *p++ = ',';
             if (framed && !r.frame.bytes.empty()) p = write_uint(p, r.frame.slave());
             *p++ = ',';
@@ -76,8 +76,6 @@ class CsvSink final : public RecordSink {
 
   private:
     BlockOutput out_;
-    CountWriter numbers_;
-    SecondsWriter seconds_;
     // Fields that may need quoting, built before they are written; all reused.
     std::string summary_;  // noise only
     FlagColumns flags_;
