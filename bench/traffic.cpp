@@ -3,8 +3,8 @@
 #include <algorithm>
 #include <vector>
 
-#include "input/capture_writer.hpp"
 #include "framing/crc.hpp"
+#include "input/capture_writer.hpp"
 #include "util/time.hpp"
 
 namespace rtuscope::bench {

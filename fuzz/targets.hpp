@@ -11,12 +11,12 @@
 #include <string>
 #include <vector>
 
-#include "profiles/bus.hpp"
-#include "output/filter.hpp"
-#include "pipeline.hpp"
-#include "profiles/profile.hpp"
-#include "output/sinks.hpp"
 #include "input/sources.hpp"
+#include "output/filter.hpp"
+#include "output/sinks.hpp"
+#include "pipeline.hpp"
+#include "profiles/bus.hpp"
+#include "profiles/profile.hpp"
 #include "stats/report.hpp"
 
 namespace rtuscope::fuzz {

@@ -1,3 +1,16 @@
+// The pipeline, source to sink; each stage is a folder of src/:
+//
+//   input/     a source delivers Chunks: bytes and when they arrived (files, pcap, a tty)
+//   framing/   the Framer cuts them into Frames and noise runs, by length, CRC and silence,
+//              asking the function table (framing/functions.hpp) how long each frame is
+//   pairing/   Transactions decides what each frame is and pairs answers with requests,
+//              handing on numbered Records in stream order
+//   decode/    decode_record explains each record's PDU, and its register values with a
+//              device profile (profiles/)
+//   output/    a RecordSink prints them: text, CSV, JSONL, values CSV, pcap (or stats/ counts)
+//
+// run_pipeline wires them for `decode`, `stats`, `sniff` and `demo`; the command line
+// (cli/) picks the source and the sinks.
 #include "pipeline.hpp"
 
 #include <fmt/format.h>

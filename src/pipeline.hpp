@@ -7,12 +7,12 @@
 #include <string>
 #include <vector>
 
-#include "profiles/bus.hpp"
-#include "input/chunk.hpp"
-#include "framing/line_settings.hpp"
 #include "framing/functions.hpp"
-#include "util/result.hpp"
+#include "framing/line_settings.hpp"
+#include "input/chunk.hpp"
 #include "pairing/transactions.hpp"
+#include "profiles/bus.hpp"
+#include "util/result.hpp"
 
 namespace rtuscope {
 

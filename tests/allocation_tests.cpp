@@ -19,13 +19,13 @@
 
 #include "input/capture_writer.hpp"
 #include "input/pcap.hpp"
-#include "output/pcap_writer.hpp"
-#include "pipeline.hpp"
-#include "util/text.hpp"
-#include "output/sinks.hpp"
 #include "input/sources.hpp"
+#include "output/pcap_writer.hpp"
+#include "output/sinks.hpp"
+#include "pipeline.hpp"
 #include "stats/report.hpp"
 #include "support.hpp"
+#include "util/text.hpp"
 
 namespace {
 // The tests run on one thread.

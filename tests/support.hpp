@@ -14,12 +14,12 @@
 #include <string>
 #include <vector>
 
-#include "profiles/bus.hpp"
-#include "input/chunk.hpp"
 #include "framing/crc.hpp"
 #include "framing/framer.hpp"
-#include "pipeline.hpp"
+#include "input/chunk.hpp"
 #include "pairing/transactions.hpp"
+#include "pipeline.hpp"
+#include "profiles/bus.hpp"
 
 namespace rtuscope::test {
 

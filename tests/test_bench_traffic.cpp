@@ -16,10 +16,10 @@
 #include <utility>
 #include <vector>
 
-#include "profiles/bus.hpp"
 #include "input/capture_writer.hpp"
-#include "pipeline.hpp"
 #include "input/sources.hpp"
+#include "pipeline.hpp"
+#include "profiles/bus.hpp"
 #include "support.hpp"
 #include "traffic.hpp"
 

@@ -4,8 +4,8 @@
 
 #include "decode/pdu_decoders.hpp"
 #include "decode/record_decoder.hpp"
-#include "profiles/bus.hpp"
 #include "pipeline.hpp"
+#include "profiles/bus.hpp"
 #include "support.hpp"
 
 namespace rtuscope {

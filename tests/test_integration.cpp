@@ -13,13 +13,13 @@
 #include <chrono>
 #include <thread>
 
-#include "profiles/bus.hpp"
-#include "input/capture_writer.hpp"
 #include "framing/crc.hpp"
-#include "pipeline.hpp"
-#include "sim/sim.hpp"
+#include "input/capture_writer.hpp"
 #include "input/sources.hpp"
 #include "input/tty.hpp"
+#include "pipeline.hpp"
+#include "profiles/bus.hpp"
+#include "sim/sim.hpp"
 #include "support.hpp"
 
 namespace rtuscope {

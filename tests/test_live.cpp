@@ -8,9 +8,9 @@
 #include <sstream>
 
 #include "input/capture_writer.hpp"
-#include "pipeline.hpp"
 #include "input/sources.hpp"
 #include "input/tty.hpp"
+#include "pipeline.hpp"
 #include "support.hpp"
 
 namespace rtuscope {

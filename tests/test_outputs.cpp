@@ -12,12 +12,12 @@
 #include <utility>
 #include <vector>
 
-#include "profiles/bus.hpp"
-#include "output/filter.hpp"
-#include "pipeline.hpp"
-#include "output/fields.hpp"
-#include "output/sinks.hpp"
 #include "input/sources.hpp"
+#include "output/fields.hpp"
+#include "output/filter.hpp"
+#include "output/sinks.hpp"
+#include "pipeline.hpp"
+#include "profiles/bus.hpp"
 #include "support.hpp"
 
 namespace rtuscope {

@@ -9,8 +9,8 @@
 #include <sstream>
 
 #include "input/pcap.hpp"
-#include "output/pcap_writer.hpp"
 #include "input/sources.hpp"
+#include "output/pcap_writer.hpp"
 #include "support.hpp"
 
 namespace rtuscope {

@@ -4,8 +4,8 @@
 #include <string>
 #include <vector>
 
-#include "pipeline.hpp"
 #include "input/sources.hpp"
+#include "pipeline.hpp"
 #include "support.hpp"
 
 namespace rtuscope {

@@ -10,8 +10,8 @@
 #include <string>
 #include <vector>
 
-#include "output/sinks.hpp"
 #include "input/sources.hpp"
+#include "output/sinks.hpp"
 #include "stats/report.hpp"
 #include "support.hpp"
 #include "traffic.hpp"

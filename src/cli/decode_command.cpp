@@ -6,8 +6,8 @@
 #include <string>
 
 #include "errors.hpp"
-#include "output_options.hpp"
 #include "input/sources.hpp"
+#include "output_options.hpp"
 
 namespace rtuscope::cli {
 namespace {

@@ -8,8 +8,8 @@
 #include <stdexcept>
 
 #include "decode_command.hpp"
-#include "profiles_command.hpp"
 #include "output/block_output.hpp"
+#include "profiles_command.hpp"
 #include "sniff_command.hpp"
 
 namespace {

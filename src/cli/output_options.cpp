@@ -10,9 +10,9 @@
 
 #include "errors.hpp"
 #include "output/filter.hpp"
-#include "util/io_block.hpp"
 #include "output/sinks.hpp"
 #include "stats/report.hpp"
+#include "util/io_block.hpp"
 
 namespace rtuscope::cli {
 

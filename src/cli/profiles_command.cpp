@@ -103,12 +103,11 @@ int show_profile(const BusArgs& args, const std::string& name) {
                              : f.answer == Answer::none ? "none"
                                                         : "standard";
         const std::string_view layout = device_layout_name(f.decode_request);
-        fmt::print("function 0x{:02X} {}: request {} bytes, answer {}{}\n", f.code, f.name,
-                   f.request_length.kind == LengthRule::Kind::fixed
-                       ? std::to_string(f.request_length.n)
-                       : "standard",
-                   answer,
-                   layout.empty() ? "" : fmt::format(", {} in table {}", layout, f.device_table));
+        fmt::print(
+            "function 0x{:02X} {}: request {} bytes, answer {}{}\n", f.code, f.name,
+            f.request_length.kind == LengthRule::Kind::fixed ? std::to_string(f.request_length.n)
+                                                             : "standard",
+            answer, layout.empty() ? "" : fmt::format(", {} in table {}", layout, f.device_table));
     }
     fmt::print("\n{:<9} {:<7} {:<24} {:<6} {:<7} {:<8} {:<6} {:<14} {}\n", "table", "address",
                "name", "type", "scale", "unit", "access", "range", "description");

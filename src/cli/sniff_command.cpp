@@ -12,10 +12,10 @@
 #include <vector>
 
 #include "errors.hpp"
-#include "output_options.hpp"
 #include "input/capture_writer.hpp"
-#include "sim/sim.hpp"
 #include "input/tty.hpp"
+#include "output_options.hpp"
+#include "sim/sim.hpp"
 
 namespace rtuscope::cli {
 namespace {

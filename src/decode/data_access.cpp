@@ -224,10 +224,10 @@ void decode_write_multiple_request(PduDecoding& d) {
         const std::size_t need = bits ? (asked + 7) / 8 : 2 * asked;
         if (*count != need) {
             d.note(note_id::byte_count_mismatch,
-                   fmt::format("byte count {}, {} {} need {}", *count, *qty,
-                               bits ? plural(*qty, "coil", "coils")
-                                    : plural(*qty, "register", "registers"),
-                               need));
+                   fmt::format(
+                       "byte count {}, {} {} need {}", *count, *qty,
+                       bits ? plural(*qty, "coil", "coils") : plural(*qty, "register", "registers"),
+                       need));
         }
     }
     DataBlock& block = d.add_block(d.spec.table, start.value_or(0), true);

@@ -92,7 +92,8 @@ void decode_unknown_function(PduDecoding& d) {
     if (std::any_of(kUserDefinedCodes.begin(), kUserDefinedCodes.end(),
                     [&](CodeRange r) { return fc >= r.first && fc <= r.last; })) {
         why = "user-defined function code 0x{:02X}";
-    } else if (std::find(kReservedCodes.begin(), kReservedCodes.end(), fc) != kReservedCodes.end()) {
+    } else if (std::find(kReservedCodes.begin(), kReservedCodes.end(), fc) !=
+               kReservedCodes.end()) {
         why = "reserved function code 0x{:02X}";
     }
     d.note(note_id::unknown_function, fmt::format(fmt::runtime(why), fc));

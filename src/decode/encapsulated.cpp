@@ -22,11 +22,11 @@ namespace {
 constexpr std::uint8_t kMeiCanopen = 0x0D;
 
 // 6.21: read device id codes 01-04, and the objects 00-06 (07-7F reserved, 80-FF private).
-constexpr std::array<const char*, 5> kReadDeviceIdCodes = {nullptr, "basic", "regular",
-                                                           "extended", "specific"};
+constexpr std::array<const char*, 5> kReadDeviceIdCodes = {nullptr, "basic", "regular", "extended",
+                                                           "specific"};
 constexpr std::array<const char*, 7> kDeviceObjects = {
-    "VendorName", "ProductCode", "MajorMinorRevision", "VendorUrl",
-    "ProductName", "ModelName", "UserApplicationName"};
+    "VendorName",  "ProductCode", "MajorMinorRevision", "VendorUrl",
+    "ProductName", "ModelName",   "UserApplicationName"};
 constexpr std::array<std::uint8_t, 6> kConformityLevels = {0x01, 0x02, 0x03, 0x81, 0x82, 0x83};
 
 const char* read_device_id_code_name(std::uint8_t code) {
@@ -113,15 +113,15 @@ void decode_device_id_response(PduDecoding& d) {
 
     std::string& s = d.out.summary;
     if (code) append_read_device_id_code(s, *code);
-    for (const auto& [label, value] : {std::pair{"conformity", conformity}, std::pair{"more", more},
-                                       std::pair{"next", next}}) {
+    for (const auto& [label, value] :
+         {std::pair{"conformity", conformity}, std::pair{"more", more}, std::pair{"next", next}}) {
         if (!value) continue;
         append_separator(s, ", ");
         fmt::format_to(std::back_inserter(s), "{} 0x{:02X}", label, *value);
     }
     check_read_device_id_code(d, code);
-    if (conformity && std::find(kConformityLevels.begin(), kConformityLevels.end(),
-                                *conformity) == kConformityLevels.end()) {
+    if (conformity && std::find(kConformityLevels.begin(), kConformityLevels.end(), *conformity) ==
+                          kConformityLevels.end()) {
         d.note(note_id::illegal_value, fmt::format("conformity level 0x{:02X}", *conformity));
     }
     if (more && *more != 0x00 && *more != 0xFF) {

@@ -29,9 +29,9 @@ void append_file_record(std::string& out, const FileRecord& r) {
 void check_file_reference(Notes* notes, std::size_t index, std::uint8_t type, const FileRecord& r) {
     if (notes == nullptr) return;
     if (type != kFileReferenceType) {
-        notes->add(note_id::illegal_value,
-                   fmt::format("sub-request {}: reference type 0x{:02X}, 0x06 required",
-                               index + 1, type));
+        notes->add(
+            note_id::illegal_value,
+            fmt::format("sub-request {}: reference type 0x{:02X}, 0x06 required", index + 1, type));
     }
     if (r.file == 0) {
         notes->add(note_id::illegal_value, fmt::format("sub-request {}: file number 0", index + 1));
@@ -58,8 +58,9 @@ std::vector<FileRecord> read_file_sub_requests(Bytes groups, Notes* notes) {
         const Bytes g = slice(groups, at, kGroup);
         if (g.size() < kGroup) {
             if (notes != nullptr) {
-                notes->add(note_id::malformed, fmt::format("sub-request {} cut short: {} of 7 bytes",
-                                                           records.size() + 1, g.size()));
+                notes->add(note_id::malformed,
+                           fmt::format("sub-request {} cut short: {} of 7 bytes",
+                                       records.size() + 1, g.size()));
             }
             break;
         }
@@ -143,11 +144,11 @@ void decode_read_file_response(PduDecoding& d) {
             append_file_record(parts, asked[n]);
             if (!values.empty()) parts += ": ";
             if (length != 1U + 2U * asked[n].length) {
-                d.note(note_id::byte_count_mismatch,
-                       fmt::format("sub-response {}: length {}, {} {} asked need {}", n + 1,
-                                   length, asked[n].length,
-                                   plural(asked[n].length, "register", "registers"),
-                                   1U + 2U * asked[n].length));
+                d.note(
+                    note_id::byte_count_mismatch,
+                    fmt::format("sub-response {}: length {}, {} {} asked need {}", n + 1, length,
+                                asked[n].length, plural(asked[n].length, "register", "registers"),
+                                1U + 2U * asked[n].length));
             }
         }
         append_word_list(parts, values);
@@ -197,8 +198,7 @@ void decode_write_file_record(PduDecoding& d) {
         if (values.size() < r.length) {
             d.note(note_id::malformed,
                    fmt::format("sub-request {} cut short: {} {} announced, {} present", n + 1,
-                               r.length, plural(r.length, "register", "registers"),
-                               values.size()));
+                               r.length, plural(r.length, "register", "registers"), values.size()));
         }
         if (n != 0) parts += ", ";
         append_file_record(parts, r);

@@ -12,6 +12,7 @@ namespace rtuscope {
 
 struct PduDecoding;
 
+// clang-format off
 // data_access.cpp: data access
 void decode_read_request(PduDecoding& d);              // 6.1-6.4
 void decode_read_bits_response(PduDecoding& d);        // 6.1, 6.2
@@ -50,6 +51,8 @@ void decode_unknown_function(PduDecoding& d);
 // device_functions.cpp: a profile's own function codes, by the layout the profile names
 void decode_address_value(PduDecoding& d);  // "address_value": a 16-bit address and value
 void decode_data_bytes(PduDecoding& d);     // no layout: the data as bytes
+// clang-format on
+
 // The decoder of a layout by its name in a profile ("address_value"), nullptr for a name
 // no layout has; and the name of a decoder's layout, "" for none.
 PduDecoder device_layout_decoder(std::string_view name);

@@ -12,9 +12,9 @@ namespace {
 // 100); a master asking for more gets an exception or silence, and this says why. The
 // register reads and writes (03, 04, 10, 17) carry their quantity in bytes 4-5 of the ADU.
 void note_over_device_limit(Record& record, const FunctionSpec& spec, const Profile& profile) {
-    const bool counts_registers = spec.max_quantity != 0 &&
-                                  (spec.table == DataTable::holding_registers ||
-                                   spec.table == DataTable::input_registers);
+    const bool counts_registers =
+        spec.max_quantity != 0 &&
+        (spec.table == DataTable::holding_registers || spec.table == DataTable::input_registers);
     const auto& b = record.frame.bytes;
     if (!counts_registers || b.size() < 8) return;
     const auto quantity = static_cast<unsigned>((b[4] << 8) | b[5]);

@@ -9,7 +9,7 @@
 namespace rtuscope {
 namespace {
 
-constexpr std::uint32_t kCycle = 32767;  // the length of both cycles
+constexpr std::uint32_t kCycle = 32767;   // the length of both cycles
 constexpr std::uint16_t kFixed = 0x7FFF;  // place of a fixed point (no cycle place is)
 
 using Places = std::array<std::uint16_t, 65536>;

@@ -159,7 +159,7 @@ class CrcEndIndex {
     void index_to(std::span<const std::uint8_t> bytes, std::size_t to);
     [[nodiscard]] std::uint16_t target_of(std::size_t at) const;
 
-    std::size_t from_ = 0;                 // the first indexed byte
+    std::size_t from_ = 0;                  // the first indexed byte
     std::vector<std::uint16_t> zero_runs_;  // Z(from_ + i): the register run from 0
     std::vector<std::uint16_t> keys_;       // key(from_ + i)
     // Searches in a row that found no length, each from within the last one's bytes,

@@ -52,9 +52,9 @@ void add_crc_note(Frame& frame) {
     if (crc.status != CrcStatus::bad && crc.status != CrcStatus::swapped) return;
     const bool bad = crc.status == CrcStatus::bad;
     frame.notes.add(bad ? note_id::crc_mismatch : note_id::crc_swapped,
-         fmt::format("{} (expected {:02X} {:02X}, got {:02X} {:02X})",
-                     bad ? "CRC BAD" : "CRC bytes swapped", crc.expected & 0xFFU, crc.expected >> 8,
-                     crc.received & 0xFFU, crc.received >> 8));
+                    fmt::format("{} (expected {:02X} {:02X}, got {:02X} {:02X})",
+                                bad ? "CRC BAD" : "CRC bytes swapped", crc.expected & 0xFFU,
+                                crc.expected >> 8, crc.received & 0xFFU, crc.received >> 8));
 }
 
 // How well a reading's CRC checks, for the choice between readings: right beats swapped
@@ -77,8 +77,7 @@ struct PlainReading {
     std::uint16_t expected_crc = 0;  // of its bytes before the last two; the caller checks
 };
 
-PlainReading plain_reading(std::span<const std::uint8_t> head,
-                                                         const FrameLengths& lengths) {
+PlainReading plain_reading(std::span<const std::uint8_t> head, const FrameLengths& lengths) {
     PlainReading result;
     const FrameLength& request = lengths.request;
     const FrameLength& response = lengths.response;
@@ -751,8 +750,9 @@ void Framer::emit(std::size_t at, std::size_t length, RecordClass cls, Reading r
 
 void Framer::add_time_jump_notes(Frame& frame, std::size_t at, std::size_t length) const {
     for (const auto& [index, back] : within_frame(time_jumps_, at, length, &TimeJump::first)) {
-        frame.notes.add(note_id::time_backwards, fmt::format("the input's time goes back {:.3f} s here",
-                                                  static_cast<double>(back) / 1e9));
+        frame.notes.add(note_id::time_backwards,
+                        fmt::format("the input's time goes back {:.3f} s here",
+                                    static_cast<double>(back) / 1e9));
     }
 }
 
@@ -772,9 +772,10 @@ void Framer::add_timing_notes(Frame& frame, const Piece& first, std::size_t at,
     // bytes only says when the adapter handed them over.
     auto measured = [](const Piece& p) { return p.exact && is_measured(p.gap); };
     if (first.first == base_ + at && measured(first) && first.gap < t35_) {
-        frame.notes.add(note_id::short_gap,
-             fmt::format("{:.1f} character times of silence before it (< t3.5)",
-                         static_cast<double>(first.gap) / static_cast<double>(char_time_)));
+        frame.notes.add(
+            note_id::short_gap,
+            fmt::format("{:.1f} character times of silence before it (< t3.5)",
+                        static_cast<double>(first.gap) / static_cast<double>(char_time_)));
     }
     // Silences inside: before the first byte of every later chunk within the frame.
     Nanos widest = 0;
@@ -784,7 +785,7 @@ void Framer::add_timing_notes(Frame& frame, const Piece& first, std::size_t at,
     }
     if (widest > t15_) {
         frame.notes.add(note_id::gap_inside,
-                               fmt::format("silence of {:.2f} ms inside (> t1.5)", in_ms(widest)));
+                        fmt::format("silence of {:.2f} ms inside (> t1.5)", in_ms(widest)));
     }
 }
 

@@ -14,12 +14,12 @@
 #include <unordered_map>
 #include <vector>
 
-#include "input/chunk.hpp"
 #include "framing/crc_end_index.hpp"
 #include "framing/expectation.hpp"
 #include "framing/frame.hpp"
-#include "framing/line_settings.hpp"
 #include "framing/functions.hpp"
+#include "framing/line_settings.hpp"
+#include "input/chunk.hpp"
 
 namespace rtuscope {
 

@@ -57,16 +57,16 @@ FrameLength encapsulated_answer_length(std::span<const std::uint8_t> head) {
 }
 
 using L = LengthRule;
-constexpr auto kFixed4 = L::fixed(4);    // the function code alone
-constexpr auto kFixed8 = L::fixed(8);    // two data words
+constexpr auto kFixed4 = L::fixed(4);      // the function code alone
+constexpr auto kFixed8 = L::fixed(8);      // two data words
 constexpr auto kCounted2 = L::counted(2);  // addr fc count data
 
 // The section 6 entries, in code order. Quantity limits from the request descriptions.
 FunctionSpec entry(std::uint8_t code, const char* name, LengthRule request, LengthRule response,
                    Answer answer, DataTable table, DataAccess access, std::uint16_t max_quantity,
                    PduDecoder decode_request, PduDecoder decode_response) {
-    return {code,         name,           request,         response, answer, table, access,
-            max_quantity, decode_request, decode_response, {}};
+    return {code,   name,         request,        response,        answer, table,
+            access, max_quantity, decode_request, decode_response, {}};
 }
 
 std::array<FunctionSpec, 128> make_table() {
@@ -76,6 +76,7 @@ std::array<FunctionSpec, 128> make_table() {
     constexpr DataAccess read_write = DataAccess::read_write;
     constexpr Answer echo = Answer::echo;
     constexpr Answer reply = Answer::reply;
+    // clang-format off
     const FunctionSpec standard_entries[] = {
         // code, name, request length, answer length, answer, data, access, max quantity,
         // request decoder, answer decoder
@@ -123,6 +124,7 @@ std::array<FunctionSpec, 128> make_table() {
               reply, none, DataAccess::none, 0, decode_encapsulated_interface,
               decode_encapsulated_interface),
     };
+    // clang-format on
     std::array<FunctionSpec, 128> table;
     for (std::size_t code = 0; code < table.size(); ++code) {
         const auto fc = static_cast<std::uint8_t>(code);

@@ -141,8 +141,7 @@ class ProtocolRules {
 
     // The entry that applies to this function code (its exception bit ignored) on this
     // slave address.
-    [[nodiscard]] virtual const FunctionSpec& function(std::uint8_t slave,
-                                                       std::uint8_t code) const;
+    [[nodiscard]] virtual const FunctionSpec& function(std::uint8_t slave, std::uint8_t code) const;
     // Whether a request to this address expects no answer (standard: address 0).
     [[nodiscard]] virtual bool is_broadcast(std::uint8_t slave) const;
     // Whether the device answers errors with exception frames (some stay silent).

@@ -48,7 +48,7 @@ inline constexpr const char* unknown_length = "frame.unknown_length";  // length
 inline constexpr const char* noise = "frame.noise";
 inline constexpr const char* char_error = "frame.char_error";  // parity/framing error (tty)
 inline constexpr const char* reserved_address = "frame.reserved_address";  // slave 248-255
-inline constexpr const char* time_backwards = "frame.time_backwards";  // capture clock jumped
+inline constexpr const char* time_backwards = "frame.time_backwards";      // capture clock jumped
 // transactions
 inline constexpr const char* no_answer = "txn.no_answer";
 inline constexpr const char* unsolicited = "txn.unsolicited";  // answer with no request

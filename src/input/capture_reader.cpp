@@ -18,8 +18,8 @@
 #include <memory>
 #include <optional>
 
-#include "input/readers.hpp"
 #include "framing/line_settings.hpp"
+#include "input/readers.hpp"
 
 namespace rtuscope::detail {
 namespace {

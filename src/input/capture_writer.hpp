@@ -6,8 +6,8 @@
 #include <optional>
 #include <string>
 
-#include "input/chunk.hpp"
 #include "framing/line_settings.hpp"
+#include "input/chunk.hpp"
 #include "util/result.hpp"
 
 namespace rtuscope {

@@ -12,10 +12,10 @@
 #include <span>
 #include <string_view>
 
-#include "input/readers.hpp"
-#include "util/io_block.hpp"
 #include "input/pcap.hpp"
+#include "input/readers.hpp"
 #include "input/sources.hpp"
+#include "util/io_block.hpp"
 
 namespace rtuscope {
 

@@ -12,9 +12,9 @@
 #include <cerrno>
 #include <cstring>
 
+#include "input/pcap.hpp"
 #include "input/readers.hpp"
 #include "util/io_block.hpp"
-#include "input/pcap.hpp"
 
 namespace rtuscope {
 namespace detail {

@@ -11,8 +11,8 @@
 #include <string>
 #include <vector>
 
-#include "input/chunk.hpp"
 #include "framing/line_settings.hpp"
+#include "input/chunk.hpp"
 #include "util/result.hpp"
 #include "util/time.hpp"
 

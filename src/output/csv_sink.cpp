@@ -1,7 +1,7 @@
 // The per-frame CSV of docs/formats.md: RFC 4180, the documented columns first in their order.
-#include "output/sinks.hpp"
 #include "output/block_output.hpp"
 #include "output/fields.hpp"
+#include "output/sinks.hpp"
 #include "util/text.hpp"
 
 namespace rtuscope {
@@ -66,9 +66,7 @@ class CsvSink final : public RecordSink {
         });
     }
 
-    void flush() override {
-        out_.flush();
-    }
+    void flush() override { out_.flush(); }
 
     void end(const Totals& /*totals*/, const std::vector<std::string>& /*remarks*/) override {
         flush();

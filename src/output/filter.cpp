@@ -1,10 +1,11 @@
+#include "output/filter.hpp"
+
 #include <fmt/format.h>
 
 #include <algorithm>
 #include <charconv>
 #include <cmath>
 
-#include "output/filter.hpp"
 #include "output/sinks.hpp"
 
 namespace rtuscope {

@@ -3,9 +3,9 @@
 // added, never renamed or retyped. Unknown values are null, never omitted, so that every
 // line has the same keys.
 #include "decode/decoder.hpp"
-#include "output/sinks.hpp"
 #include "output/block_output.hpp"
 #include "output/fields.hpp"
+#include "output/sinks.hpp"
 #include "util/text.hpp"
 
 namespace rtuscope {
@@ -161,9 +161,7 @@ class JsonlSink final : public RecordSink {
         out_.record_done();
     }
 
-    void flush() override {
-        out_.flush();
-    }
+    void flush() override { out_.flush(); }
 
     void end(const Totals& /*totals*/, const std::vector<std::string>& /*remarks*/) override {
         flush();

@@ -2,13 +2,14 @@
 // 252). Written by hand rather than through pcap_dump so that every write error is seen.
 // Tag numbers and layout: Wireshark's epan/exported_pdu.h; the length of a tag counts the
 // padding of its value to a multiple of 4 (as Wireshark's own exporter writes it).
+#include "output/pcap_writer.hpp"
+
 #include <fmt/format.h>
 
 #include <cerrno>
 #include <cstring>
 
 #include "util/io_block.hpp"
-#include "output/pcap_writer.hpp"
 
 namespace rtuscope {
 

@@ -5,9 +5,9 @@
 
 #include <span>
 
-#include "output/sinks.hpp"
 #include "output/block_output.hpp"
 #include "output/fields.hpp"
+#include "output/sinks.hpp"
 #include "util/text.hpp"
 
 namespace rtuscope {
@@ -133,9 +133,7 @@ class TextSink final : public RecordSink {
         if (has_time(r.frame.start)) previous_ = r.frame.start;
     }
 
-    void flush() override {
-        out_.flush();
-    }
+    void flush() override { out_.flush(); }
 
     void end(const Totals& t, const std::vector<std::string>& remarks) override {
         out_.send();

@@ -183,9 +183,10 @@ void Transactions::push(Frame& frame) {
         } else if (answered_ && f.slave() == answered_->slave &&
                    (f.function() & 0x7FU) == answered_->function) {
             record.request_number = answered_->request_number;
-            record.notes.add(note_id::duplicate_answer,
-                 fmt::format("second answer to #{} (after #{}): two devices on address {}?",
-                             answered_->request_number, answered_->answer_number, f.slave()));
+            record.notes.add(
+                note_id::duplicate_answer,
+                fmt::format("second answer to #{} (after #{}): two devices on address {}?",
+                            answered_->request_number, answered_->answer_number, f.slave()));
         } else if (!invalid) {
             record.notes.add(note_id::unsolicited, "answer with no request");
         }
@@ -197,7 +198,7 @@ void Transactions::push(Frame& frame) {
 
     if (record.kind == Kind::exception && !options_.rules->answers_errors(f.slave())) {
         record.notes.add(note_id::unexpected_exception,
-             "this device is said to answer errors with silence, not exceptions");
+                         "this device is said to answer errors with silence, not exceptions");
     }
     const bool awaits = (record.kind == Kind::request ||
                          (invalid && is_request && !options_.rules->is_broadcast(f.slave()))) &&

@@ -5,8 +5,8 @@
 #include <algorithm>
 #include <charconv>
 
-#include "util/text_file.hpp"
 #include "profiles/toml.hpp"
+#include "util/text_file.hpp"
 
 namespace rtuscope {
 

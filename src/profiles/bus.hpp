@@ -10,9 +10,9 @@
 #include <string_view>
 #include <vector>
 
+#include "framing/functions.hpp"
 #include "framing/line_settings.hpp"
 #include "profiles/profile.hpp"
-#include "framing/functions.hpp"
 #include "util/result.hpp"
 
 namespace rtuscope {

@@ -1,11 +1,11 @@
 // Lookups in a loaded profile.
 #include "profiles/profile.hpp"
 
-#include "decode/pdu_decoders.hpp"
-
 #include <algorithm>
 #include <array>
 #include <cmath>
+
+#include "decode/pdu_decoders.hpp"
 
 namespace rtuscope {
 

@@ -20,8 +20,8 @@
 #include "decode/pdu_decoders.hpp"
 #include "profiles/profile.hpp"
 #include "profiles/profile_formula.hpp"
-#include "util/text_file.hpp"
 #include "profiles/toml.hpp"
+#include "util/text_file.hpp"
 
 namespace rtuscope {
 namespace {

@@ -27,7 +27,7 @@ struct DecodedValue {
     std::string value;          // "220.5", "-5.0", an enum label, bit names, a string
     std::string unit;
     std::string raw;  // the register word(s) in hex: "0x089D", "0x0000 0x3039"
-    Notes notes;  // value.* diagnostics for this value
+    Notes notes;      // value.* diagnostics for this value
 
     void clear();  // empties it, keeping the buffers for the next record's values
 };

@@ -12,8 +12,8 @@
 #include "output/block_output.hpp"
 #include "output/fields.hpp"
 #include "output/sinks.hpp"
-#include "util/text.hpp"
 #include "util/io_block.hpp"
+#include "util/text.hpp"
 
 namespace rtuscope {
 namespace {
@@ -291,23 +291,22 @@ void append_json_row(std::string& out, const RowFigures& f) {
                        f.key->second);
     }
     fmt::format_to(std::back_inserter(out),
-                   "\"requests\":{},\"answers\":{},\"exceptions\":{},\"exception_codes\":{{", c.requests,
-                   c.answers, c.exceptions);
+                   "\"requests\":{},\"answers\":{},\"exceptions\":{},\"exception_codes\":{{",
+                   c.requests, c.answers, c.exceptions);
     bool first = true;
     for (const auto& [code, n] : c.exception_codes) {
         fmt::format_to(std::back_inserter(out), "{}\"{}\":{}", first ? "" : ",", code, n);
         first = false;
     }
-    fmt::format_to(
-        std::back_inserter(out),
-        "}},\"crc_errors\":{},\"no_answer\":{},\"broadcasts\":{},\"unsolicited\":{},"
-        "\"turnarounds\":{},\"turnaround_p50_ms\":{},\"turnaround_p95_ms\":{},"
-        "\"turnaround_p99_ms\":{},\"turnaround_max_ms\":{},\"cycle_median_ms\":{},"
-        "\"cycle_max_ms\":{},\"turnaround_bin_ms\":{},\"cycle_bin_ms\":{}",
-        c.crc_errors, c.no_answer, c.broadcasts, c.unsolicited, c.turnarounds.size(),
-        ms(f.p50, 3, "null"), ms(f.p95, 3, "null"), ms(f.p99, 3, "null"), ms(f.max, 3, "null"),
-        ms(f.cycle_median, 3, "null"), ms(f.cycle_max, 3, "null"), bin_ms(&c.turnarounds, "null"),
-        bin_ms(f.cycles, "null"));
+    fmt::format_to(std::back_inserter(out),
+                   "}},\"crc_errors\":{},\"no_answer\":{},\"broadcasts\":{},\"unsolicited\":{},"
+                   "\"turnarounds\":{},\"turnaround_p50_ms\":{},\"turnaround_p95_ms\":{},"
+                   "\"turnaround_p99_ms\":{},\"turnaround_max_ms\":{},\"cycle_median_ms\":{},"
+                   "\"cycle_max_ms\":{},\"turnaround_bin_ms\":{},\"cycle_bin_ms\":{}",
+                   c.crc_errors, c.no_answer, c.broadcasts, c.unsolicited, c.turnarounds.size(),
+                   ms(f.p50, 3, "null"), ms(f.p95, 3, "null"), ms(f.p99, 3, "null"),
+                   ms(f.max, 3, "null"), ms(f.cycle_median, 3, "null"), ms(f.cycle_max, 3, "null"),
+                   bin_ms(&c.turnarounds, "null"), bin_ms(f.cycles, "null"));
 }
 
 // A JSON object's `"key":"value"` member with the value as a JSON string.
@@ -331,17 +330,17 @@ void write_jsonl(const BusStats& stats, Pieces& pieces) {
     out += ',';
     append_json_member(out, "devices", session.devices);
     const std::optional<double> utilisation = stats.utilisation();
-    fmt::format_to(
-        std::back_inserter(out),
-        ",\"timed\":{},\"duration_s\":{},\"frames\":{},\"bytes\":{},\"noise_runs\":{},"
-        "\"noise_bytes\":{},\"invalid\":{},\"unknown\":{},\"char_time_ms\":{:.6f},"
-        "\"utilisation_pct\":{},\"poll\":",
-        stats.timed() ? "true" : "false",
-        stats.duration() ? fmt::format("{:.6f}", static_cast<double>(*stats.duration()) / 1e9)
-                         : "null",
-        bus.frames, bus.bytes, bus.noise_runs, bus.noise_bytes, bus.invalid, bus.unknown,
-        static_cast<double>(session.line.char_time()) / 1e6,
-        utilisation ? fmt::format("{:.3f}", *utilisation) : "null");
+    fmt::format_to(std::back_inserter(out),
+                   ",\"timed\":{},\"duration_s\":{},\"frames\":{},\"bytes\":{},\"noise_runs\":{},"
+                   "\"noise_bytes\":{},\"invalid\":{},\"unknown\":{},\"char_time_ms\":{:.6f},"
+                   "\"utilisation_pct\":{},\"poll\":",
+                   stats.timed() ? "true" : "false",
+                   stats.duration()
+                       ? fmt::format("{:.6f}", static_cast<double>(*stats.duration()) / 1e9)
+                       : "null",
+                   bus.frames, bus.bytes, bus.noise_runs, bus.noise_bytes, bus.invalid, bus.unknown,
+                   static_cast<double>(session.line.char_time()) / 1e6,
+                   utilisation ? fmt::format("{:.3f}", *utilisation) : "null");
     if (const auto* p = stats.main_poll(std::nullopt); p != nullptr) {
         fmt::format_to(std::back_inserter(out), "{{\"slave\":{},\"function\":{},\"data\":\"",
                        p->first.slave, p->first.function);
@@ -355,7 +354,8 @@ void write_jsonl(const BusStats& stats, Pieces& pieces) {
     } else {
         out += "null";
     }
-    fmt::format_to(std::back_inserter(out), ",\"forgotten_polls\":{},\"unlisted_exceptions\":{},\"all\":{{",
+    fmt::format_to(std::back_inserter(out),
+                   ",\"forgotten_polls\":{},\"unlisted_exceptions\":{},\"all\":{{",
                    stats.forgotten_polls(), stats.unlisted_exceptions());
     append_json_row(out, bus_row(stats));
     out += "}}}\n";
@@ -417,4 +417,3 @@ std::unique_ptr<RecordSink> make_stats_sink(std::FILE* out, StatsFormat format) 
 }
 
 }  // namespace rtuscope
-
