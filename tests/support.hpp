@@ -201,11 +201,4 @@ class CollectingSink final : public RecordSink {
     bool ended = false;
 };
 
-inline bool has_note(const Record& r, const char* id) {
-    for (const Note& n : r.notes) {
-        if (std::string_view(n.id) == id) return true;
-    }
-    return false;
-}
-
 }  // namespace rtuscope::test

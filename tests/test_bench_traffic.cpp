@@ -228,7 +228,7 @@ TEST_P(BenchTraffic, DecodesToWhatWasSent) {
         if (poll.answer == nullptr) {
             // Unless the next poll, to the same slave and function, passes for its answer.
             const bool next_same = k + 1 < polls.size() && polls[k + 1].key() == key;
-            if (!poll.broadcast() && !next_same && !test::has_note(request, note_id::no_answer)) {
+            if (!poll.broadcast() && !next_same && !request.notes.has(note_id::no_answer)) {
                 fail(request, "unanswered, but not said to be");
             }
             continue;

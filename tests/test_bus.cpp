@@ -12,7 +12,6 @@ namespace rtuscope {
 namespace {
 
 using test::Bytes;
-using test::has_note;
 using test::Line;
 using test::with_crc;
 
@@ -100,7 +99,7 @@ TEST(Bus, OwnBroadcastAddressExpectsNoAnswer) {
     const auto r = h.run(line.chunks());
     ASSERT_EQ(r.size(), 1U);
     EXPECT_EQ(r[0].kind, Kind::broadcast);
-    EXPECT_FALSE(has_note(r[0], note_id::no_answer));
+    EXPECT_FALSE(r[0].notes.has(note_id::no_answer));
     EXPECT_EQ(r[0].decoded.function_name, "Set correction coefficient");
 }
 
@@ -132,11 +131,11 @@ TEST(Bus, SilenceInsteadOfExceptionsIsSaid) {
     line.send_per_byte(exception);
     const auto r = h.run(line.chunks());
     ASSERT_EQ(r.size(), 3U);
-    ASSERT_TRUE(has_note(r[0], note_id::no_answer));
+    ASSERT_TRUE(r[0].notes.has(note_id::no_answer));
     EXPECT_EQ(r[0].notes.back().text,
               "no answer within 1 s (this device answers errors with silence)");
     EXPECT_EQ(r[2].kind, Kind::exception);
-    EXPECT_TRUE(has_note(r[2], note_id::unexpected_exception));
+    EXPECT_TRUE(r[2].notes.has(note_id::unexpected_exception));
 }
 
 TEST(Bus, FunctionThatIsNeverAnsweredIsNotAwaited) {
@@ -145,7 +144,7 @@ TEST(Bus, FunctionThatIsNeverAnsweredIsNotAwaited) {
     const auto r = h.run({Chunk{kNoTime, "", blink, 0, {}}});
     ASSERT_EQ(r.size(), 1U);
     EXPECT_EQ(r[0].kind, Kind::request);
-    EXPECT_FALSE(has_note(r[0], note_id::no_answer));
+    EXPECT_FALSE(r[0].notes.has(note_id::no_answer));
 }
 
 TEST(Bus, OtherSlavesKeepTheStandardRules) {
@@ -168,9 +167,9 @@ TEST(Bus, RequestOverTheDevicesRegisterLimitIsNoted) {
         h.run({Chunk{kNoTime, "", with_crc({0x02, 0x03, 0x00, 0x00, 0x00, 0x65}), 0, {}},
                Chunk{kNoTime, "", with_crc({0x02, 0x03, 0x00, 0x00, 0x00, 0x64}), 0, {}}});
     ASSERT_EQ(r.size(), 2U);
-    ASSERT_TRUE(has_note(r[0], note_id::over_device_limit));
+    ASSERT_TRUE(r[0].notes.has(note_id::over_device_limit));
     EXPECT_EQ(r[0].notes.back().text, "101 registers asked, small allows at most 100");
-    EXPECT_FALSE(has_note(r[1], note_id::over_device_limit));
+    EXPECT_FALSE(r[1].notes.has(note_id::over_device_limit));
 }
 
 TEST(Bus, ReservedAddressIsFlaggedUnlessTheProfileUsesIt) {
@@ -180,7 +179,7 @@ TEST(Bus, ReservedAddressIsFlaggedUnlessTheProfileUsesIt) {
         BusHarness standard_only;  // nothing on 250
         const auto r = standard_only.run({Chunk{kNoTime, "", to_250, 0, {}}});
         ASSERT_EQ(r.size(), 1U);
-        ASSERT_TRUE(has_note(r[0], note_id::reserved_address));
+        ASSERT_TRUE(r[0].notes.has(note_id::reserved_address));
         EXPECT_EQ(r[0].notes.back().text, "slave address 250 is reserved (248-255)");
     }
     BusHarness h;  // uv-test on 1 broadcasts on 255
@@ -192,8 +191,8 @@ TEST(Bus, ReservedAddressIsFlaggedUnlessTheProfileUsesIt) {
     ASSERT_TRUE(h.bus.assign(250, "wide"));
     const auto r = h.run({Chunk{kNoTime, "", to_250, 0, {}}, Chunk{kNoTime, "", to_255, 0, {}}});
     ASSERT_EQ(r.size(), 2U);
-    EXPECT_FALSE(has_note(r[0], note_id::reserved_address));
-    EXPECT_FALSE(has_note(r[1], note_id::reserved_address));
+    EXPECT_FALSE(r[0].notes.has(note_id::reserved_address));
+    EXPECT_FALSE(r[1].notes.has(note_id::reserved_address));
 }
 
 TEST(Bus, DeviceOption) {

@@ -17,7 +17,6 @@ namespace {
 using test::Bytes;
 using test::concat;
 using test::Harness;
-using test::has_note;
 using test::kMs;
 using test::Line;
 using test::with_crc;
@@ -63,8 +62,8 @@ TEST(Framer, UsbBatchesWithRequestAndAnswerInOneChunk) {
     EXPECT_EQ(h.output_bytes(), h.input_bytes);
     // Batching hides the real silences: no timing complaints from it.
     for (const Record& rec : r) {
-        EXPECT_FALSE(has_note(rec, note_id::gap_inside)) << rec.number;
-        EXPECT_FALSE(has_note(rec, note_id::short_gap)) << rec.number;
+        EXPECT_FALSE(rec.notes.has(note_id::gap_inside)) << rec.number;
+        EXPECT_FALSE(rec.notes.has(note_id::short_gap)) << rec.number;
     }
 }
 
@@ -78,11 +77,11 @@ TEST(Framer, FastAnswerBelowT35IsStillTwoFrames) {
     ASSERT_EQ(r.size(), 4U);
     expect_frame(r[0], kRead, Kind::request);
     expect_frame(r[1], kReadAnswer, Kind::response);
-    EXPECT_TRUE(has_note(r[1], note_id::short_gap));
-    EXPECT_FALSE(has_note(r[0], note_id::short_gap));
+    EXPECT_TRUE(r[1].notes.has(note_id::short_gap));
+    EXPECT_FALSE(r[0].notes.has(note_id::short_gap));
     expect_frame(r[2], kWrite, Kind::request);
     expect_frame(r[3], kWrite, Kind::response);
-    EXPECT_TRUE(has_note(r[3], note_id::short_gap));
+    EXPECT_TRUE(r[3].notes.has(note_id::short_gap));
     EXPECT_GT(r[1].latency, 2 * line.char_time());
     EXPECT_LT(r[1].latency, 3 * line.char_time());
 }
@@ -156,10 +155,10 @@ TEST(Framer, TruncatedFrameThenNextFrameFound) {
     expect_frame(r[0], kRead, Kind::request);
     EXPECT_EQ(r[1].kind, Kind::invalid);
     EXPECT_EQ(r[1].frame.bytes, Bytes(kReadAnswer.begin(), kReadAnswer.begin() + 4));
-    EXPECT_TRUE(has_note(r[1], note_id::truncated));
+    EXPECT_TRUE(r[1].notes.has(note_id::truncated));
     EXPECT_EQ(r[1].frame.reading, Reading::response);  // the awaited answer, broken off
     EXPECT_EQ(r[1].request_number, 1U);
-    EXPECT_FALSE(has_note(r[0], note_id::no_answer));
+    EXPECT_FALSE(r[0].notes.has(note_id::no_answer));
     expect_frame(r[2], kRead, Kind::request);
     expect_frame(r[3], kReadAnswer, Kind::response);
     EXPECT_EQ(r[3].request_number, 3U);
@@ -284,11 +283,11 @@ TEST(Framer, BadCrcBetweenGapsIsInvalidAndSwappedCrcIsAFrame) {
     EXPECT_EQ(r[0].kind, Kind::invalid);
     EXPECT_EQ(r[0].frame.bytes, corrupt);
     EXPECT_EQ(r[0].frame.crc.status, CrcStatus::bad);
-    EXPECT_TRUE(has_note(r[0], note_id::crc_mismatch));
+    EXPECT_TRUE(r[0].notes.has(note_id::crc_mismatch));
     // The damage may have happened at the tap: the slave answered, so the pair stands.
     EXPECT_EQ(r[1].kind, Kind::response);
     EXPECT_EQ(r[1].request_number, 1U);
-    EXPECT_FALSE(has_note(r[0], note_id::no_answer));
+    EXPECT_FALSE(r[0].notes.has(note_id::no_answer));
     EXPECT_EQ(r[3].kind, Kind::response);
     EXPECT_EQ(r[3].frame.crc.status, CrcStatus::swapped);
     EXPECT_EQ(r[3].request_number, 3U);
@@ -312,7 +311,7 @@ TEST(Framer, GapInsideAFrameIsNoted) {
     const auto& r = h.run(line.chunks());
     ASSERT_EQ(r.size(), 1U);
     expect_frame(r[0], kRead, Kind::request);
-    EXPECT_TRUE(has_note(r[0], note_id::gap_inside));
+    EXPECT_TRUE(r[0].notes.has(note_id::gap_inside));
 }
 
 TEST(Framer, HexLinesAreOneFrameEachRightOrWrong) {

@@ -17,7 +17,6 @@ namespace rtuscope {
 namespace {
 
 using test::Bytes;
-using test::has_note;
 using test::kMs;
 using test::with_crc;
 
@@ -136,7 +135,7 @@ TEST(LiveTransactions, TimeoutIsDecidedByTheClockNotTheNextFrame) {
     EXPECT_TRUE(records.empty());  // still waiting for the answer
     t.tick(1011 * kMs);
     ASSERT_EQ(records.size(), 1U);
-    EXPECT_TRUE(has_note(records[0], note_id::no_answer));
+    EXPECT_TRUE(records[0].notes.has(note_id::no_answer));
     EXPECT_EQ(records[0].notes.back().text, "no answer within 1 s");
 }
 

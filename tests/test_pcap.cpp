@@ -3,8 +3,10 @@
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 
@@ -714,6 +716,92 @@ TEST(PcapRoundTrip, RecordsWrittenAndReadBackKeepBytesTimesAndDirections) {
         EXPECT_EQ(collect.records[i].frame.start, records[i].frame.start);
         EXPECT_EQ(collect.records[i].frame.end, records[i].frame.end);
     }
+}
+
+// Every bundled capture decoded with --pcap and the pcap decoded again: the same frames,
+// times, directions and pairs. A pcap carries no noise, so the frames are compared in
+// order and a pair by the frames' positions.
+struct FrameSeen {
+    Bytes bytes;
+    Nanos start = kNoTime;
+    Kind kind = Kind::noise;
+    std::ptrdiff_t request = -1;  // position of the frame it answers, -1 for none
+    Nanos latency = kNoTime;
+};
+
+std::vector<FrameSeen> frames_of(const std::string& path, const std::string& pcap_out) {
+    auto source = open_source(path, InputFormat::automatic);
+    EXPECT_TRUE(source.ok()) << path;
+    if (!source.ok()) return {};
+    test::CollectingSink collect;
+    std::unique_ptr<PcapSink> pcap;
+    std::vector<std::unique_ptr<RecordSink>> sinks;
+    if (!pcap_out.empty()) {
+        auto made = make_pcap_sink(pcap_out);
+        EXPECT_TRUE(made.ok());
+        pcap = std::move(*made);
+    }
+    struct Both final : RecordSink {
+        RecordSink* a;
+        RecordSink* b;
+        void begin(const SessionInfo& s) override {
+            a->begin(s);
+            if (b) b->begin(s);
+        }
+        void record(const Record& r) override {
+            a->record(r);
+            if (b) b->record(r);
+        }
+        void end(const Totals& t, const std::vector<std::string>& r) override {
+            a->end(t, r);
+            if (b) b->end(t, r);
+        }
+    } both;
+    both.a = &collect;
+    both.b = pcap.get();
+    EXPECT_TRUE(run_pipeline(**source, PipelineOptions{}, both).ok()) << path;
+    if (pcap) {
+        EXPECT_TRUE(pcap->status().ok());
+    }
+    std::vector<FrameSeen> frames;
+    std::vector<std::ptrdiff_t> position(collect.records.size() + 1, -1);
+    for (const Record& r : collect.records) {
+        if (r.kind == Kind::noise) continue;
+        position[r.number] = static_cast<std::ptrdiff_t>(frames.size());
+        FrameSeen f{r.frame.bytes, r.frame.start, r.kind, -1, r.latency};
+        if (r.request_number != 0) f.request = position[r.request_number];
+        frames.push_back(f);
+    }
+    return frames;
+}
+
+TEST(PcapRoundTrip, EveryBundledCaptureKeepsFramesTimesDirectionsAndPairs) {
+    TempDir dir;
+    std::size_t captures = 0;
+    for (const auto& entry : std::filesystem::recursive_directory_iterator(
+             std::filesystem::path(RTUSCOPE_SOURCE_DIR) / "captures")) {
+        const std::string ext = entry.path().extension().string();
+        if (!entry.is_regular_file() || ext == ".md" || ext == ".toml") continue;
+        const std::string path = entry.path().string();
+        SCOPED_TRACE(path);
+        const std::string pcap = dir.file("round.pcap");
+        const std::vector<FrameSeen> before = frames_of(path, pcap);
+        const std::vector<FrameSeen> after = frames_of(pcap, "");
+        ASSERT_EQ(after.size(), before.size());
+        const bool timed = std::any_of(before.begin(), before.end(),
+                                       [](const FrameSeen& f) { return has_time(f.start); });
+        for (std::size_t i = 0; i < before.size(); ++i) {
+            SCOPED_TRACE("frame " + std::to_string(i + 1));
+            EXPECT_EQ(after[i].bytes, before[i].bytes);
+            EXPECT_EQ(after[i].kind, before[i].kind);
+            EXPECT_EQ(after[i].request, before[i].request);
+            if (timed) {
+                EXPECT_EQ(after[i].start, before[i].start);
+            }
+        }
+        ++captures;
+    }
+    EXPECT_GT(captures, 20U);
 }
 
 }  // namespace

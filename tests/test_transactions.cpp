@@ -13,7 +13,6 @@ namespace {
 
 using test::Bytes;
 using test::Harness;
-using test::has_note;
 using test::kMs;
 using test::Line;
 using test::with_crc;
@@ -44,14 +43,14 @@ TEST(Transactions, SecondAnswerToOneRequestPointsAtADuplicateAddress) {
     const auto& r = h.run(line.chunks());
     ASSERT_EQ(r.size(), 5U);
     EXPECT_EQ(r[1].request_number, 1U);
-    EXPECT_FALSE(has_note(r[1], note_id::duplicate_answer));
+    EXPECT_FALSE(r[1].notes.has(note_id::duplicate_answer));
     EXPECT_EQ(r[2].kind, Kind::response);
-    ASSERT_TRUE(has_note(r[2], note_id::duplicate_answer));
+    ASSERT_TRUE(r[2].notes.has(note_id::duplicate_answer));
     EXPECT_EQ(r[2].notes.back().text, "second answer to #1 (after #2): two devices on address 1?");
-    EXPECT_FALSE(has_note(r[2], note_id::unsolicited));
+    EXPECT_FALSE(r[2].notes.has(note_id::unsolicited));
     // A new request starts afresh: its one answer is no duplicate.
     EXPECT_EQ(r[4].request_number, 4U);
-    EXPECT_FALSE(has_note(r[4], note_id::duplicate_answer));
+    EXPECT_FALSE(r[4].notes.has(note_id::duplicate_answer));
 }
 
 TEST(Transactions, ExceptionPairsWithItsRequest) {
@@ -71,11 +70,11 @@ TEST(Transactions, NoAnswerWithinTimeout) {
     Harness h;
     const auto& r = h.run(line.chunks());
     ASSERT_EQ(r.size(), 2U);
-    EXPECT_TRUE(has_note(r[0], note_id::no_answer));
+    EXPECT_TRUE(r[0].notes.has(note_id::no_answer));
     EXPECT_EQ(r[0].notes.back().text, "no answer within 1 s");
     EXPECT_EQ(r[1].kind, Kind::response);
     EXPECT_EQ(r[1].request_number, 0U);
-    EXPECT_TRUE(has_note(r[1], note_id::unsolicited));
+    EXPECT_TRUE(r[1].notes.has(note_id::unsolicited));
 }
 
 TEST(Transactions, NextRequestEndsTheWaitAndOrderIsKept) {
@@ -87,18 +86,18 @@ TEST(Transactions, NextRequestEndsTheWaitAndOrderIsKept) {
     const auto& r = h.run(line.chunks());
     ASSERT_EQ(r.size(), 4U);
     EXPECT_EQ(r[0].frame.bytes, other);
-    EXPECT_TRUE(has_note(r[0], note_id::no_answer));
+    EXPECT_TRUE(r[0].notes.has(note_id::no_answer));
     EXPECT_EQ(r[1].kind, Kind::noise);
     EXPECT_EQ(r[2].number, 3U);
     EXPECT_EQ(r[3].request_number, 3U);
-    EXPECT_FALSE(has_note(r[2], note_id::no_answer));
+    EXPECT_FALSE(r[2].notes.has(note_id::no_answer));
 }
 
 TEST(Transactions, UnansweredAtEndOfInput) {
     Harness h;
     const auto& r = h.run_raw(kRead);
     ASSERT_EQ(r.size(), 1U);
-    EXPECT_TRUE(has_note(r[0], note_id::no_answer));
+    EXPECT_TRUE(r[0].notes.has(note_id::no_answer));
 }
 
 TEST(Transactions, BroadcastExpectsNoAnswer) {
@@ -110,7 +109,7 @@ TEST(Transactions, BroadcastExpectsNoAnswer) {
     const auto& r = h.run(line.chunks());
     ASSERT_EQ(r.size(), 3U);
     EXPECT_EQ(r[0].kind, Kind::broadcast);
-    EXPECT_FALSE(has_note(r[0], note_id::no_answer));
+    EXPECT_FALSE(r[0].notes.has(note_id::no_answer));
     EXPECT_EQ(r[2].request_number, 2U);
 }
 
@@ -136,7 +135,7 @@ TEST(Transactions, EchoAfterTimeoutIsANewRequest) {
     const auto& r = h.run(line.chunks());
     ASSERT_EQ(r.size(), 2U);
     EXPECT_EQ(r[0].kind, Kind::request);
-    EXPECT_TRUE(has_note(r[0], note_id::no_answer));
+    EXPECT_TRUE(r[0].notes.has(note_id::no_answer));
     EXPECT_EQ(r[1].kind, Kind::request);
 }
 
@@ -148,7 +147,7 @@ TEST(Transactions, RetryOfTheSameReadIsARequest) {
     const auto& r = h.run(line.chunks());
     ASSERT_EQ(r.size(), 3U);
     EXPECT_EQ(r[1].kind, Kind::request);
-    EXPECT_TRUE(has_note(r[0], note_id::no_answer));
+    EXPECT_TRUE(r[0].notes.has(note_id::no_answer));
     EXPECT_EQ(r[2].request_number, 2U);
 }
 
@@ -158,7 +157,7 @@ TEST(Transactions, AnswerFromAnotherSlaveIsUnsolicited) {
     const auto& r = h.run_raw(test::concat({stray, kRead, kReadAnswer}));
     ASSERT_EQ(r.size(), 3U);
     EXPECT_EQ(r[0].kind, Kind::response);
-    EXPECT_TRUE(has_note(r[0], note_id::unsolicited));
+    EXPECT_TRUE(r[0].notes.has(note_id::unsolicited));
     EXPECT_EQ(r[2].request_number, 2U);
 }
 
@@ -205,12 +204,12 @@ TEST(Transactions, NoAnswerWithinTheMostFramesHeldBehindARequest) {
     const Emitted e = run_counting_held({dump});
     const std::vector<Record>& r = e.records;
     ASSERT_EQ(r.size(), kMaxFramesAwaiting + 12);
-    ASSERT_TRUE(has_note(r[0], note_id::no_answer));
+    ASSERT_TRUE(r[0].notes.has(note_id::no_answer));
     EXPECT_EQ(r[0].notes.back().text, "no answer within 4096 frames");
     EXPECT_LE(e.held_most, kMaxFramesAwaiting + 1);
     EXPECT_EQ(r.back().kind, Kind::response);
     EXPECT_EQ(r.back().request_number, 0U);  // too late for its request
-    EXPECT_TRUE(has_note(r.back(), note_id::unsolicited));
+    EXPECT_TRUE(r.back().notes.has(note_id::unsolicited));
 }
 
 TEST(Transactions, NoAnswerWithinTheMostBytesHeldBehindARequest) {
@@ -227,7 +226,7 @@ TEST(Transactions, NoAnswerWithinTheMostBytesHeldBehindARequest) {
     const Emitted e = run_counting_held(lines, true);
     const std::vector<Record>& r = e.records;
     ASSERT_EQ(r.size(), 7U);
-    ASSERT_TRUE(has_note(r[0], note_id::no_answer));
+    ASSERT_TRUE(r[0].notes.has(note_id::no_answer));
     EXPECT_EQ(r[0].notes.back().text, "no answer within 1048576 bytes");
     EXPECT_EQ(e.held_most, 4U);  // given up once the fourth passed 1 MiB
 }
@@ -295,7 +294,7 @@ TEST(Transactions, AfterALongWaitUnansweredRequestsReuseTheFirstSlotsToo) {
     ASSERT_EQ(after.records.size(), 2U * kRetries);
     for (const Record& r : after.records) {
         EXPECT_EQ(r.kind, Kind::request);
-        EXPECT_TRUE(has_note(r, note_id::no_answer));
+        EXPECT_TRUE(r.notes.has(note_id::no_answer));
     }
     EXPECT_LE(after.slots.size(), 2U);
 }
@@ -364,6 +363,43 @@ TEST(Transactions, ManyRecordsHeldBehindAnAwaitedRequestKeepOrderAndContents) {
     EXPECT_EQ(r[kNoiseRuns + 1].request, kRead);
     EXPECT_EQ(r[kNoiseRuns + 2].kind, Kind::request);
     EXPECT_EQ(r[kNoiseRuns + 2].frame.bytes, kWrite);
+}
+
+}  // namespace
+}  // namespace rtuscope
+
+namespace rtuscope {
+namespace {
+
+// One frame a chunk, as a hex log line or a pcap packet delivers it: an answer cut short
+// has no shape to tell its direction, but it stands where the awaited answer would, so it
+// is that answer, broken, and the request is answered (by a broken answer), not left
+// without one.
+TEST(Transactions, ACutShortAnswerInItsOwnLineAnswersTheRequestBeforeIt) {
+    Harness h(true);
+    Chunk request;
+    request.bytes = kRead;
+    Chunk cut;
+    cut.bytes = {0x01, 0x03, 0x04, 0x17};
+    const auto& r = h.run({request, cut});
+    ASSERT_EQ(r.size(), 2U);
+    EXPECT_EQ(r[0].kind, Kind::request);
+    EXPECT_FALSE(r[0].notes.has(note_id::no_answer));
+    EXPECT_EQ(r[1].kind, Kind::invalid);
+    EXPECT_EQ(r[1].request_number, r[0].number);
+}
+
+// A broken frame of another slave is no answer to the request.
+TEST(Transactions, ABrokenFrameOfAnotherSlaveAnswersNothing) {
+    Harness h(true);
+    Chunk request;
+    request.bytes = kRead;
+    Chunk other;
+    other.bytes = {0x07, 0x03, 0x04, 0x17};
+    const auto& r = h.run({request, other});
+    ASSERT_EQ(r.size(), 2U);
+    EXPECT_TRUE(r[0].notes.has(note_id::no_answer));
+    EXPECT_EQ(r[1].request_number, 0U);
 }
 
 }  // namespace

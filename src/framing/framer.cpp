@@ -600,7 +600,7 @@ bool Framer::awaits_answer(std::span<const std::uint8_t> head, Nanos at) const {
 }
 
 Reading Framer::reading_by_shape(std::span<const std::uint8_t> frame, Nanos at,
-                                 bool any_length_fits_search) const {
+                                 bool any_length_fits_search, const std::string& channel) const {
     if (frame.size() < 2) return Reading::unknown;
     bool fits[2] = {false, false};
     const FrameLengths lengths = options_.rules->frame_lengths(frame);
@@ -610,13 +610,18 @@ Reading Framer::reading_by_shape(std::span<const std::uint8_t> frame, Nanos at,
             (length.kind == FrameLength::Kind::fixed && length.bytes == frame.size()) ||
             (any_length_fits_search && length.kind == FrameLength::Kind::search);
     }
+    if (!fits[0] && !fits[1]) return Reading::unknown;
+    // On a two-port tap the port the bytes came on says which way they went.
+    if (!channel.empty() && !options_.request_channel.empty()) {
+        return channel == options_.request_channel ? Reading::request
+                                                   : reading_for(Role::response, frame[1]);
+    }
     const bool prefer_response = awaits_answer(frame, at);
     if (fits[0] && fits[1]) {
         return prefer_response ? reading_for(Role::response, frame[1]) : Reading::request;
     }
     if (fits[0]) return Reading::request;
-    if (fits[1]) return reading_for(Role::response, frame[1]);
-    return Reading::unknown;
+    return reading_for(Role::response, frame[1]);
 }
 
 void Framer::classify_unframed(std::size_t from, std::size_t to) {
@@ -631,7 +636,8 @@ void Framer::classify_unframed(std::size_t from, std::size_t to) {
 
         if (n >= kMinAdu) {
             const CrcCheck crc = check_crc(piece);
-            const Reading shape = reading_by_shape(piece, byte_end(start), false);
+            const Reading shape =
+                reading_by_shape(piece, byte_end(start), false, channels_[piece_of(start).channel]);
             if (crc.status != CrcStatus::bad) {
                 // CRC right but the length disagrees with the function code.
                 const Note malformed{note_id::malformed, "length does not fit its function code"};
@@ -657,8 +663,9 @@ void Framer::classify_unframed(std::size_t from, std::size_t to) {
 
 bool Framer::emit_if_truncated(std::size_t at, std::size_t n) {
     // A broken-off transmission: too short for the length its header implies.
+    if (n < 2) return false;
     const auto piece = std::span(bytes_).subspan(at, n);
-    const bool answer_first = awaits_answer(piece, byte_end(at));
+    const bool answer_first = expects_answer_at(at, piece);
     const FrameLengths lengths = options_.rules->frame_lengths(piece);
     for (const Role role : {answer_first ? Role::response : Role::request,
                             answer_first ? Role::request : Role::response}) {
@@ -698,11 +705,19 @@ void Framer::emit_chunk_as_frame(const Chunk& chunk) {
     frame.source_line = chunk.source_line;
     frame.delimiter = Delimiter::line;
     frame.crc = check_crc(frame.bytes);
-    frame.reading = reading_by_shape(frame.bytes, chunk.time, true);
+    const Reading shape = reading_by_shape(frame.bytes, chunk.time, true, chunk.channel);
+    frame.reading = shape;
+    // The port a packet came on says which way it went, whatever its shape (a cut-short
+    // answer too); without one, the shape and the awaited answer do.
+    if (!chunk.channel.empty() && !options_.request_channel.empty() && frame.bytes.size() >= 2) {
+        frame.reading = chunk.channel == options_.request_channel
+                            ? Reading::request
+                            : reading_for(Role::response, frame.bytes[1]);
+    }
     frame.cls = frame.crc.status == CrcStatus::bad ? RecordClass::invalid : RecordClass::frame;
     if (frame.bytes.size() < kMinAdu) frame.cls = RecordClass::invalid;
     add_crc_note(frame);
-    if (frame.reading == Reading::unknown && frame.cls == RecordClass::frame) {
+    if (shape == Reading::unknown && frame.cls == RecordClass::frame) {
         frame.notes.add(note_id::malformed, "length does not fit its function code");
     }
     emit_(frame);

@@ -100,9 +100,11 @@ class Framer {
     // Whether the pairing stage awaits an answer from this slave and function at `at`.
     [[nodiscard]] bool awaits_answer(std::span<const std::uint8_t> head, Nanos at) const;
     // Request or answer by length alone (or by the awaited answer when both fit). With
-    // `any_length_fits_search`, codes whose length no field gives fit any length.
+    // `any_length_fits_search`, codes whose length no field gives fit any length. Bytes of a
+    // two-port tap's `channel` go the way their port says, whenever a reading fits.
     [[nodiscard]] Reading reading_by_shape(std::span<const std::uint8_t> frame, Nanos at,
-                                           bool any_length_fits_search) const;
+                                           bool any_length_fits_search,
+                                           const std::string& channel) const;
     bool emit_if_truncated(std::size_t at, std::size_t n);
     void emit_chunk_as_frame(const Chunk& chunk);
     // `crc`: the check the caller made (none for noise and for frames cut short);

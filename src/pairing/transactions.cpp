@@ -136,9 +136,13 @@ void Transactions::push(Frame& frame) {
     // A request that has waited past the timeout by the time this frame starts.
     tick(f.start);
 
-    const bool answer_reading = f.reading == Reading::response || f.reading == Reading::exception;
     const bool matches_awaited =
         awaiting_ && f.slave() == awaited_.slave && (f.function() & 0x7FU) == awaited_.function;
+    // A broken frame whose shape says nothing (an answer cut short in a hex log line or a
+    // pcap packet) is the answer when it stands where the awaited one would.
+    const bool answer_reading =
+        f.reading == Reading::response || f.reading == Reading::exception ||
+        (f.cls == RecordClass::invalid && f.reading == Reading::unknown && matches_awaited);
 
     switch (f.cls) {
         case RecordClass::noise:

@@ -12,6 +12,7 @@ void merge_counts(FunctionStats& into, const FunctionStats& from) {
     into.requests += from.requests;
     into.answers += from.answers;
     into.exceptions += from.exceptions;
+    into.broken += from.broken;
     for (const auto& [code, n] : from.exception_codes) into.exception_codes[code] += n;
     into.crc_errors += from.crc_errors;
     into.no_answer += from.no_answer;
@@ -44,46 +45,55 @@ void BusStats::add(const Record& record) {
     if (f.bytes.size() < 2) return;
     const Key key{f.slave(), static_cast<std::uint8_t>(f.function() & 0x7FU)};
     const bool crc_error = f.crc.status == CrcStatus::bad || f.crc.status == CrcStatus::swapped;
-    const bool counted = crc_error || record.kind == Kind::request ||
-                         record.kind == Kind::response || record.kind == Kind::exception ||
-                         record.kind == Kind::broadcast;
+    const bool invalid = record.kind == Kind::invalid;
+    // What the pairing took for a request or an answer, broken ones included.
+    const bool request = record.kind == Kind::request || (invalid && f.reading == Reading::request);
+    const bool answer = record.kind == Kind::response || record.kind == Kind::exception ||
+                        (invalid && record.request_number != 0);
     // Rows only for what has a column: an unknown frame alone would be an empty row.
-    if (!counted) return;
+    if (!crc_error && !request && !answer && record.kind != Kind::broadcast) return;
     FunctionStats& s = functions_[key];
     if (crc_error) ++s.crc_errors;
+    if (record.kind == Kind::broadcast) ++s.broadcasts;
+    if (request) count_request(s, key, record);
+    if (answer) count_answer(s, record);
+}
+
+void BusStats::count_request(FunctionStats& s, const Key& key, const Record& record) {
+    const Frame& f = record.frame;
+    ++s.requests;
+    if (record.notes.has(note_id::no_answer)) ++s.no_answer;
+    PollKey poll{key.first, key.second, {}, 0};
+    const std::size_t data = f.bytes.size() >= 4 ? f.bytes.size() - 4 : 0;
+    poll.size = static_cast<std::uint8_t>(std::min<std::size_t>(data, 4));
+    std::copy_n(f.bytes.begin() + 2, poll.size, poll.data.begin());
+    PollStats& p = poll_of(poll);
+    ++p.requests;
+    if (has_time(f.start)) {
+        if (has_time(p.last_start)) add_duration(p.cycles, f.start - p.last_start);
+        p.last_start = f.start;
+    }
+}
+
+void BusStats::count_answer(FunctionStats& s, const Record& record) {
+    const Frame& f = record.frame;
+    if (record.kind == Kind::exception && f.bytes.size() >= 3) count_exception_code(s, f.bytes[2]);
+    if (record.notes.has(note_id::unsolicited) || record.notes.has(note_id::duplicate_answer)) {
+        ++s.unsolicited;
+        return;
+    }
     switch (record.kind) {
-        case Kind::request: {
-            ++s.requests;
-            if (record.notes.has(note_id::no_answer)) ++s.no_answer;
-            PollKey poll{key.first, key.second, {}, 0};
-            const std::size_t data = f.bytes.size() >= 4 ? f.bytes.size() - 4 : 0;
-            poll.size = static_cast<std::uint8_t>(std::min<std::size_t>(data, 4));
-            std::copy_n(f.bytes.begin() + 2, poll.size, poll.data.begin());
-            PollStats& p = poll_of(poll);
-            ++p.requests;
-            if (has_time(f.start)) {
-                if (has_time(p.last_start)) add_duration(p.cycles, f.start - p.last_start);
-                p.last_start = f.start;
-            }
-            break;
-        }
         case Kind::response:
-        case Kind::exception:
-            if (record.kind == Kind::response) {
-                ++s.answers;
-            } else {
-                ++s.exceptions;
-                if (f.bytes.size() >= 3) count_exception_code(s, f.bytes[2]);
-            }
-            if (record.notes.has(note_id::unsolicited)) ++s.unsolicited;
-            if (has_time(record.latency)) add_duration(s.turnarounds, record.latency);
+            ++s.answers;
             break;
-        case Kind::broadcast:
-            ++s.broadcasts;
+        case Kind::exception:
+            ++s.exceptions;
             break;
         default:
+            ++s.broken;
             break;
     }
+    if (has_time(record.latency)) add_duration(s.turnarounds, record.latency);
 }
 
 void BusStats::finish() {

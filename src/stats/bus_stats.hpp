@@ -25,18 +25,25 @@
 namespace rtuscope {
 
 // Figures of one slave and function code (the function without its exception bit).
+// Figures of one slave and function code (the function without its exception bit). Every
+// request that awaits an answer has one outcome: requests = answers + exceptions + broken +
+// no_answer.
 struct FunctionStats {
-    std::uint64_t requests = 0;
-    std::uint64_t answers = 0;     // normal answers (Kind::response), unsolicited ones too
-    std::uint64_t exceptions = 0;  // exception answers, also counted per code below
-    // Per code, within BusStats::kMaxExceptionCodes over all rows.
+    std::uint64_t requests = 0;    // requests awaiting an answer, their CRC right or not
+    std::uint64_t answers = 0;     // normal answers (Kind::response) to a request
+    std::uint64_t exceptions = 0;  // exception answers to a request
+    std::uint64_t broken = 0;      // answers to a request with a bad CRC or cut short
+    // Per code, every exception answer (answering a request or not), within
+    // BusStats::kMaxExceptionCodes over all rows.
     std::map<std::uint8_t, std::uint64_t> exception_codes;
-    std::uint64_t crc_errors = 0;   // frames with a bad or swapped CRC, whatever their kind
-    std::uint64_t no_answer = 0;    // requests noted txn.no_answer
-    std::uint64_t broadcasts = 0;   // requests to the broadcast address
-    std::uint64_t unsolicited = 0;  // answers and exceptions noted txn.unsolicited
-    // End of request to start of answer, for normal and exception answers alike (both
-    // show how fast the device reacts), where the input has timing.
+    std::uint64_t crc_errors = 0;  // frames with a bad or swapped CRC, whatever their kind
+    std::uint64_t no_answer = 0;   // requests noted txn.no_answer
+    std::uint64_t broadcasts = 0;  // requests to the broadcast address
+    // Answers that answer no waiting request: nobody asked (txn.unsolicited), or a second
+    // answer to one request (txn.duplicate_answer: two devices on one address).
+    std::uint64_t unsolicited = 0;
+    // End of request to start of answer, for every kind of answer to a request (each shows
+    // how fast the device reacts), where the input has timing.
     DurationCounts turnarounds;
 };
 
@@ -132,6 +139,8 @@ class BusStats {
         std::optional<Key> key) const;
 
   private:
+    void count_request(FunctionStats& s, const Key& key, const Record& record);
+    void count_answer(FunctionStats& s, const Record& record);
     PollStats& poll_of(const PollKey& key);
     void forget_rare_polls();
     void add_duration(DurationCounts& counts, Nanos value);

@@ -199,20 +199,22 @@ void write_text(const BusStats& stats, const std::vector<std::string>& remarks, 
     // Short headers keep the table within a terminal's width for typical buses; the
     // legend says what they mean.
     out +=
-        "\nper slave and function (times in ms; p50..max: turnaround over the n measured "
-        "answers;\ncycle: of the slave's most frequent poll for that function):\n";
+        "\nper slave and function (times in ms; each request has one outcome: req = ans + "
+        "exc + broken\n(an answer with a bad CRC or cut short) + no ans; p50..max: turnaround "
+        "over the n measured\nanswers; cycle: of the slave's most frequent poll for that "
+        "function):\n";
     const auto rows = [&](const auto& emit) {
-        emit({"slave", "fc", "function", "req", "ans", "exc", "crc", "no ans", "bcast", "unsol",
-              "n", "p50", "p95", "p99", "max", "cycle", "cyc max"});
+        emit({"slave", "fc", "function", "req", "ans", "exc", "broken", "no ans", "crc", "bcast",
+              "unsol", "n", "p50", "p95", "p99", "max", "cycle", "cyc max"});
         for_each_row(stats, [&](const RowFigures& f) {
             const FunctionStats& c = *f.counts;
             emit({f.key ? fmt::format("{}", f.key->first) : "all",
                   f.key ? fmt::format("{:02X}", f.key->second) : "",
                   f.key ? standard_function(f.key->second).name : "", fmt::format("{}", c.requests),
                   fmt::format("{}", c.answers), fmt::format("{}", c.exceptions),
-                  fmt::format("{}", c.crc_errors), fmt::format("{}", c.no_answer),
-                  fmt::format("{}", c.broadcasts), fmt::format("{}", c.unsolicited),
-                  fmt::format("{}", c.turnarounds.size()),
+                  fmt::format("{}", c.broken), fmt::format("{}", c.no_answer),
+                  fmt::format("{}", c.crc_errors), fmt::format("{}", c.broadcasts),
+                  fmt::format("{}", c.unsolicited), fmt::format("{}", c.turnarounds.size()),
                   ms_text(f.p50, c.turnarounds.bin_width()),
                   ms_text(f.p95, c.turnarounds.bin_width()),
                   ms_text(f.p99, c.turnarounds.bin_width()), ms(f.max, 2, "-"),
@@ -222,7 +224,7 @@ void write_text(const BusStats& stats, const std::vector<std::string>& remarks, 
     };
     table(pieces,
           {true, true, false, true, true, true, true, true, true, true, true, true, true, true,
-           true, true, true},
+           true, true, true, true},
           rows);
 
     const auto exceptions = [&](const auto& emit) {
@@ -268,17 +270,18 @@ void write_csv(const BusStats& stats, Pieces& pieces) {
     out +=
         "slave,function,requests,answers,exceptions,crc_errors,no_answer,broadcasts,"
         "unsolicited,turnarounds,turnaround_p50_ms,turnaround_p95_ms,turnaround_p99_ms,"
-        "turnaround_max_ms,cycle_median_ms,cycle_max_ms,turnaround_bin_ms,cycle_bin_ms\n";
+        "turnaround_max_ms,cycle_median_ms,cycle_max_ms,turnaround_bin_ms,cycle_bin_ms,broken\n";
     for_each_row(stats, [&](const RowFigures& f) {
         const FunctionStats& c = *f.counts;
         const std::string slave = f.key ? fmt::format("{}", f.key->first) : "all";
         const std::string function = f.key ? fmt::format("{}", f.key->second) : "all";
-        out += fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n", slave,
+        // Columns are only ever added, at the end.
+        out += fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n", slave,
                            function, c.requests, c.answers, c.exceptions, c.crc_errors, c.no_answer,
                            c.broadcasts, c.unsolicited, c.turnarounds.size(), ms(f.p50, 3, ""),
                            ms(f.p95, 3, ""), ms(f.p99, 3, ""), ms(f.max, 3, ""),
                            ms(f.cycle_median, 3, ""), ms(f.cycle_max, 3, ""),
-                           bin_ms(&c.turnarounds, ""), bin_ms(f.cycles, ""));
+                           bin_ms(&c.turnarounds, ""), bin_ms(f.cycles, ""), c.broken);
         pieces.line_done();
     });
 }
@@ -291,8 +294,9 @@ void append_json_row(std::string& out, const RowFigures& f) {
                        f.key->second);
     }
     fmt::format_to(std::back_inserter(out),
-                   "\"requests\":{},\"answers\":{},\"exceptions\":{},\"exception_codes\":{{",
-                   c.requests, c.answers, c.exceptions);
+                   "\"requests\":{},\"answers\":{},\"exceptions\":{},\"broken\":{},"
+                   "\"exception_codes\":{{",
+                   c.requests, c.answers, c.exceptions, c.broken);
     bool first = true;
     for (const auto& [code, n] : c.exception_codes) {
         fmt::format_to(std::back_inserter(out), "{}\"{}\":{}", first ? "" : ",", code, n);
