@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "input/sources.hpp"
+#include "profiles/bus.hpp"
 #include "output/sinks.hpp"
 #include "stats/report.hpp"
 #include "support.hpp"
@@ -48,7 +49,7 @@ Record with_note(Record r, const char* id) {
 }
 
 // Runs the whole pipeline on an in-memory input and returns the finished statistics.
-BusStats stats_of(std::string content, InputFormat format) {
+BusStats stats_of(std::string content, InputFormat format, const Bus* bus = nullptr) {
     auto source = source_from_memory(std::move(content), "mem", format);
     EXPECT_TRUE(source) << source.error().to_string();
     BusStats stats;
@@ -62,7 +63,9 @@ BusStats stats_of(std::string content, InputFormat format) {
       private:
         BusStats& stats_;
     } sink(stats);
-    EXPECT_TRUE(run_pipeline(**source, {}, sink));
+    PipelineOptions options;
+    options.bus = bus;
+    EXPECT_TRUE(run_pipeline(**source, options, sink));
     return stats;
 }
 
@@ -951,6 +954,27 @@ TEST(StatsCounts, ACutShortAnswerCountsAsBroken) {
     EXPECT_EQ(row.no_answer, 0U);
     EXPECT_NE(render_stats(s, StatsFormat::text).find("req  ans  exc  broken  no ans"),
               std::string::npos);
+}
+
+// A device's own function code is named and shown as its profile says, in the rows and in
+// the polls: the ZB-UVI485's FC04 is a write of one coefficient, not a read of 18 input
+// registers.
+TEST(StatsProfiles, RowsAndPollsFollowTheDevicesOwnFunctions) {
+    Bus bus;
+    ASSERT_TRUE(bus.assign(1, "zb-uvi485"));
+    const char* capture =
+        "# rtuscope capture v1\n"
+        "# serial 9600 8N1\n"
+        "0.010000 01 04 00 15 00 12 61 C3\n"
+        "0.030000 01 04 00 15 00 12 61 C3\n"
+        "0.110000 01 04 00 15 00 12 61 C3\n"
+        "0.130000 01 04 00 15 00 12 61 C3\n";
+    const BusStats s = stats_of(capture, InputFormat::capture, &bus);
+    const std::string text = render_stats(s, StatsFormat::text);
+    EXPECT_NE(text.find("1  04  Set correction coefficient"), std::string::npos) << text;
+    EXPECT_EQ(text.find("Read Input Registers"), std::string::npos) << text;
+    EXPECT_NE(text.find("1  04  00 15 00 12"), std::string::npos) << text;
+    EXPECT_EQ(text.find("0x0015 x18"), std::string::npos) << text;
 }
 
 }  // namespace

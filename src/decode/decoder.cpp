@@ -108,6 +108,7 @@ void DataBlock::clear() {
 }
 
 void DecodedPdu::clear() {
+    function = nullptr;
     function_name = {};
     summary.clear();
     exception = false;
@@ -126,6 +127,7 @@ void decode_pdu(const FunctionSpec& spec, std::span<const std::uint8_t> pdu, Rol
         d.note(note_id::malformed, "empty PDU: no function code");
         return;
     }
+    out.function = &spec;
     out.function_name = spec.name;
     d.fc = pdu[0];
     d.data = pdu.subspan(1);

@@ -32,8 +32,11 @@ struct DataBlock {
 };
 
 struct DecodedPdu {
-    // "Read Holding Registers"; "Function 0x41" when unknown. Points into the function
-    // table or a profile, which outlive the records.
+    // The entry it was decoded by: the standard one of its code, or its device's own.
+    // Points into the function table or a profile, which outlive the records.
+    const FunctionSpec* function = nullptr;
+    // "Read Holding Registers"; "Function 0x41" when unknown; "Read Device Identification"
+    // for 2B/0E.
     std::string_view function_name;
     std::string summary;  // key fields, e.g. "0x0000 x2" or "2 registers: 0x1818 0x0000"
     bool exception = false;

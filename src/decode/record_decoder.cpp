@@ -49,6 +49,7 @@ void decode_record(Record& record, const ProtocolRules& rules, const Bus* bus) {
     const FunctionSpec& spec = rules.function(frame.slave(), frame.function());
     if (frame.bytes.size() < kMinAdu || record.notes.has(note_id::truncated)) {
         // No CRC at the end to strip: name the function, decode nothing.
+        record.decoded.function = &spec;
         record.decoded.function_name = spec.name;
         return;
     }

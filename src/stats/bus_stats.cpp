@@ -53,6 +53,7 @@ void BusStats::add(const Record& record) {
     // Rows only for what has a column: an unknown frame alone would be an empty row.
     if (!crc_error && !request && !answer && record.kind != Kind::broadcast) return;
     FunctionStats& s = functions_[key];
+    if (s.function == nullptr) s.function = record.decoded.function;
     if (crc_error) ++s.crc_errors;
     if (record.kind == Kind::broadcast) ++s.broadcasts;
     if (request) count_request(s, key, record);

@@ -19,6 +19,7 @@
 #include <optional>
 #include <utility>
 
+#include "framing/functions.hpp"
 #include "pipeline.hpp"
 #include "stats/durations.hpp"
 
@@ -29,6 +30,9 @@ namespace rtuscope {
 // request that awaits an answer has one outcome: requests = answers + exceptions + broken +
 // no_answer.
 struct FunctionStats {
+    // The entry its frames were decoded by (a device's own where its profile has one),
+    // nullptr until one is known.
+    const FunctionSpec* function = nullptr;
     std::uint64_t requests = 0;    // requests awaiting an answer, their CRC right or not
     std::uint64_t answers = 0;     // normal answers (Kind::response) to a request
     std::uint64_t exceptions = 0;  // exception answers to a request

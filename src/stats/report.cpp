@@ -108,10 +108,19 @@ Nanos widest_bin(const BusStats& stats) {
     return widest;
 }
 
+// The entry a row's frames were decoded by: the device's own where its profile has one.
+const FunctionSpec& function_of(const BusStats& stats, std::uint8_t slave, std::uint8_t code) {
+    const auto row = stats.functions().find({slave, code});
+    if (row != stats.functions().end() && row->second.function != nullptr) {
+        return *row->second.function;
+    }
+    return standard_function(code);
+}
+
 // "0x0000 x2" for the reads of a table (01-04), whose first 4 data bytes are address and
-// quantity; the bytes in hex for anything else.
-std::string poll_data_text(const PollKey& key) {
-    const FunctionSpec& spec = standard_function(key.function);
+// quantity; the bytes in hex for anything else (a device's own function too).
+std::string poll_data_text(const BusStats& stats, const PollKey& key) {
+    const FunctionSpec& spec = function_of(stats, key.slave, key.function);
     if (spec.access == DataAccess::read && spec.table != DataTable::none && key.size == 4) {
         return fmt::format("0x{:02X}{:02X} x{}", key.data[0], key.data[1],
                            key.data[2] * 256U + key.data[3]);
@@ -168,7 +177,7 @@ void write_text(const BusStats& stats, const std::vector<std::string>& remarks, 
                 "{} requests)\n",
                 ms_text(poll->second.cycles.percentile(50), poll->second.cycles.bin_width()),
                 ms(poll->second.cycles.percentile(100), 2, "-"), poll->first.slave,
-                poll->first.function, poll_data_text(poll->first), poll->second.requests);
+                poll->first.function, poll_data_text(stats, poll->first), poll->second.requests);
         } else {
             out += "poll cycle: no request repeated\n";
         }
@@ -210,7 +219,8 @@ void write_text(const BusStats& stats, const std::vector<std::string>& remarks, 
             const FunctionStats& c = *f.counts;
             emit({f.key ? fmt::format("{}", f.key->first) : "all",
                   f.key ? fmt::format("{:02X}", f.key->second) : "",
-                  f.key ? standard_function(f.key->second).name : "", fmt::format("{}", c.requests),
+                  f.key ? function_of(stats, f.key->first, f.key->second).name : "",
+                  fmt::format("{}", c.requests),
                   fmt::format("{}", c.answers), fmt::format("{}", c.exceptions),
                   fmt::format("{}", c.broken), fmt::format("{}", c.no_answer),
                   fmt::format("{}", c.crc_errors), fmt::format("{}", c.broadcasts),
@@ -255,7 +265,7 @@ void write_text(const BusStats& stats, const std::vector<std::string>& remarks, 
             for (const auto& [key, p] : stats.polls()) {
                 if (p.cycles.empty()) continue;
                 emit({fmt::format("{}", key.slave), fmt::format("{:02X}", key.function),
-                      poll_data_text(key), fmt::format("{}", p.requests),
+                      poll_data_text(stats, key), fmt::format("{}", p.requests),
                       ms_text(p.cycles.percentile(50), p.cycles.bin_width()),
                       ms(p.cycles.percentile(100), 2, "-")});
             }
