@@ -16,6 +16,7 @@
 #include "input/tty.hpp"
 #include "output_options.hpp"
 #include "sim/sim.hpp"
+#include "util/text.hpp"
 
 namespace rtuscope::cli {
 namespace {
@@ -75,12 +76,17 @@ int run_live(const LiveArgs& args, Decoding& decoding, TtyOptions tty) {
 
     Totals totals;
     const Status status = run_pipeline(*input, decoding.options, *decoding.sink, &totals);
+    const auto n = [](std::uint64_t count, std::string_view one, std::string_view many) {
+        return fmt::format("{} {}", count, plural(count, one, many));
+    };
     fmt::print(stderr,
-               "rtuscope: {} frames ({} requests, {} answers, {} exceptions), {} errors ({} "
-               "bad CRC, {} invalid, {} noise bytes), {} requests without answer\n",
-               totals.records - totals.noise_runs, totals.requests, totals.responses,
-               totals.exceptions, totals.crc_bad + totals.invalid + totals.noise_runs,
-               totals.crc_bad, totals.invalid, totals.noise_bytes, totals.unanswered);
+               "rtuscope: {} ({}, {}, {}), {} ({} bad CRC, {} invalid, {}), {} without answer\n",
+               n(totals.records - totals.noise_runs, "frame", "frames"),
+               n(totals.requests, "request", "requests"), n(totals.responses, "answer", "answers"),
+               n(totals.exceptions, "exception", "exceptions"),
+               n(totals.crc_bad + totals.invalid + totals.noise_runs, "error", "errors"),
+               totals.crc_bad, totals.invalid, n(totals.noise_bytes, "noise byte", "noise bytes"),
+               n(totals.unanswered, "request", "requests"));
     if (!status) return print_error(status.error()), 1;
     if (Status pcap = pcap_status(decoding); !pcap) return print_error(pcap.error()), 1;
     return 0;

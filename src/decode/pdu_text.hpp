@@ -10,17 +10,14 @@
 #include <string_view>
 #include <vector>
 
+#include "util/text.hpp"
+
 namespace rtuscope {
 
 // A summary stays one readable line: longer lists end in "... (+N more)". The values
 // themselves all go into the data blocks.
 inline constexpr std::size_t kListedWords = 8;
 inline constexpr std::size_t kListedBits = 64;
-
-// `one` for 1, else `many`: "1 register", "2 registers".
-inline std::string_view plural(std::size_t n, std::string_view one, std::string_view many) {
-    return n == 1 ? one : many;
-}
 
 // "2 registers"
 void append_counted(std::string& out, std::size_t n, std::string_view one, std::string_view many);

@@ -138,15 +138,18 @@ class TextSink final : public RecordSink {
     void end(const Totals& t, const std::vector<std::string>& remarks) override {
         out_.send();
         std::FILE* file = out_.file();
-        fmt::print(file,
-                   "-- {} records, {} bytes: {} requests, {} answers, {} exceptions, "
-                   "{} broadcasts, {} unknown, {} invalid, {} noise bytes in {} runs\n",
-                   t.records, t.bytes, t.requests, t.responses, t.exceptions, t.broadcasts,
-                   t.unknown, t.invalid, t.noise_bytes, t.noise_runs);
-        fmt::print(file,
-                   "-- CRC: {} bad, {} swapped; {} requests without answer; "
-                   "{} answers without request\n",
-                   t.crc_bad, t.crc_swapped, t.unanswered, t.unsolicited);
+        const auto n = [](std::uint64_t count, std::string_view one, std::string_view many) {
+            return fmt::format("{} {}", count, plural(count, one, many));
+        };
+        fmt::print(file, "-- {}, {}: {}, {}, {}, {}, {} unknown, {} invalid, {} in {}\n",
+                   n(t.records, "record", "records"), n(t.bytes, "byte", "bytes"),
+                   n(t.requests, "request", "requests"), n(t.responses, "answer", "answers"),
+                   n(t.exceptions, "exception", "exceptions"),
+                   n(t.broadcasts, "broadcast", "broadcasts"), t.unknown, t.invalid,
+                   n(t.noise_bytes, "noise byte", "noise bytes"), n(t.noise_runs, "run", "runs"));
+        fmt::print(file, "-- CRC: {} bad, {} swapped; {} without answer; {} without request\n",
+                   t.crc_bad, t.crc_swapped, n(t.unanswered, "request", "requests"),
+                   n(t.unsolicited, "answer", "answers"));
         for (const std::string& remark : remarks) fmt::print(file, "-- note: {}\n", remark);
         flush_output(file);
     }

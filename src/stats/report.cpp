@@ -163,21 +163,25 @@ void write_text(const BusStats& stats, const std::vector<std::string>& remarks, 
                            session.line.baud, session.line.format());
     }
     if (!session.devices.empty()) out += fmt::format("devices: {}\n", session.devices);
-    out += fmt::format(
-        "bus: {} frames, {} bytes; {} invalid, {} unknown; {} noise bytes in {} runs\n", bus.frames,
-        bus.bytes, bus.invalid, bus.unknown, bus.noise_bytes, bus.noise_runs);
+    out += fmt::format("bus: {} {}, {} {}; {} invalid, {} unknown; {} {} in {} {}\n", bus.frames,
+                       plural(bus.frames, "frame", "frames"), bus.bytes,
+                       plural(bus.bytes, "byte", "bytes"), bus.invalid, bus.unknown,
+                       bus.noise_bytes, plural(bus.noise_bytes, "noise byte", "noise bytes"),
+                       bus.noise_runs, plural(bus.noise_runs, "run", "runs"));
     if (stats.timed()) {
-        out += fmt::format("duration: {:.3f} s, utilisation {:.1f} % ({} bytes of {:.3f} ms)\n",
+        out += fmt::format("duration: {:.3f} s, utilisation {:.1f} % ({} {} of {:.3f} ms)\n",
                            static_cast<double>(*stats.duration()) / 1e9, *stats.utilisation(),
-                           bus.bytes, static_cast<double>(session.line.char_time()) / 1e6);
+                           bus.bytes, plural(bus.bytes, "byte", "bytes"),
+                           static_cast<double>(session.line.char_time()) / 1e6);
         const auto* poll = stats.main_poll(std::nullopt);
         if (poll != nullptr && !poll->second.cycles.empty()) {
             out += fmt::format(
                 "poll cycle: {} ms median, {} ms max (slave {} function {:02X} {}, "
-                "{} requests)\n",
+                "{} {})\n",
                 ms_text(poll->second.cycles.percentile(50), poll->second.cycles.bin_width()),
                 ms(poll->second.cycles.percentile(100), 2, "-"), poll->first.slave,
-                poll->first.function, poll_data_text(stats, poll->first), poll->second.requests);
+                poll->first.function, poll_data_text(stats, poll->first), poll->second.requests,
+                plural(poll->second.requests, "request", "requests"));
         } else {
             out += "poll cycle: no request repeated\n";
         }
@@ -220,11 +224,11 @@ void write_text(const BusStats& stats, const std::vector<std::string>& remarks, 
             emit({f.key ? fmt::format("{}", f.key->first) : "all",
                   f.key ? fmt::format("{:02X}", f.key->second) : "",
                   f.key ? function_of(stats, f.key->first, f.key->second).name : "",
-                  fmt::format("{}", c.requests),
-                  fmt::format("{}", c.answers), fmt::format("{}", c.exceptions),
-                  fmt::format("{}", c.broken), fmt::format("{}", c.no_answer),
-                  fmt::format("{}", c.crc_errors), fmt::format("{}", c.broadcasts),
-                  fmt::format("{}", c.unsolicited), fmt::format("{}", c.turnarounds.size()),
+                  fmt::format("{}", c.requests), fmt::format("{}", c.answers),
+                  fmt::format("{}", c.exceptions), fmt::format("{}", c.broken),
+                  fmt::format("{}", c.no_answer), fmt::format("{}", c.crc_errors),
+                  fmt::format("{}", c.broadcasts), fmt::format("{}", c.unsolicited),
+                  fmt::format("{}", c.turnarounds.size()),
                   ms_text(f.p50, c.turnarounds.bin_width()),
                   ms_text(f.p95, c.turnarounds.bin_width()),
                   ms_text(f.p99, c.turnarounds.bin_width()), ms(f.max, 2, "-"),

@@ -26,6 +26,11 @@ namespace rtuscope {
 
 inline constexpr std::size_t kMaxUintChars = 20;
 
+// `one` for 1, else `many`: "1 register", "2 registers".
+inline std::string_view plural(std::uint64_t n, std::string_view one, std::string_view many) {
+    return n == 1 ? one : many;
+}
+
 // The two digits of 0-99, at 2 * n.
 inline constexpr auto kTwoDigits = [] {
     std::array<char, 200> pairs{};
