@@ -58,10 +58,14 @@ Result<std::unique_ptr<Bus>> build_bus(const BusArgs& args) {
     if (!args.bus_file.empty()) {
         if (Status s = load_bus_file(*bus, args.bus_file); !s) return s.error();
     }
-    for (const std::string& device : args.devices) {
-        if (Status s = assign_device_option(*bus, device); !s) return s.error();
-    }
     return bus;
+}
+
+Status assign_devices(Bus& bus, const BusArgs& args) {
+    for (const std::string& device : args.devices) {
+        if (Status s = assign_device_option(bus, device); !s) return s.error();
+    }
+    return ok_status();
 }
 
 }  // namespace rtuscope::cli

@@ -19,9 +19,13 @@ struct BusArgs {
 
 void add_bus_options(CLI::App& cmd, BusArgs& args);
 
-// The bundled profiles, the user's, and the bus map. Problems in profile files are all
-// printed, one per line (FILE:LINE:COL: message); the result is then an error.
+// The bundled profiles, the user's, and the bus file's map. Problems in profile files are
+// all printed, one per line (FILE:LINE:COL: message); the result is then an error. A file
+// that cannot be read or holds mistakes is exit status 1.
 Result<std::unique_ptr<Bus>> build_bus(const BusArgs& args);
+// The --device options on top of it. A malformed one or an unknown profile name is a bad
+// option: exit status 2.
+Status assign_devices(Bus& bus, const BusArgs& args);
 
 // Prints every problem in a profile file, one per line, on stderr.
 void print_problems(const std::vector<ProfileProblem>& problems);

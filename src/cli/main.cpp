@@ -3,9 +3,13 @@
 #include <fmt/format.h>
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <cstdio>
 #include <exception>
 #include <stdexcept>
+#include <string>
+#include <string_view>
+#include <vector>
 
 #include "decode_command.hpp"
 #include "output/block_output.hpp"
@@ -13,6 +17,81 @@
 #include "sniff_command.hpp"
 
 namespace {
+
+// Edits (insertions, deletions, substitutions) from `a` to `b`, for suggesting a command.
+std::size_t edit_distance(std::string_view a, std::string_view b) {
+    std::vector<std::size_t> row(b.size() + 1);
+    for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
+    for (std::size_t i = 1; i <= a.size(); ++i) {
+        std::size_t diagonal = row[0];
+        row[0] = i;
+        for (std::size_t j = 1; j <= b.size(); ++j) {
+            const std::size_t above = row[j];
+            row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] != b[j - 1])});
+            diagonal = above;
+        }
+    }
+    return row[b.size()];
+}
+
+// The command the arguments reached: rtuscope itself, or a command, or `profiles show`.
+CLI::App* reached(CLI::App& app) {
+    for (CLI::App* sub : app.get_subcommands()) return reached(*sub);
+    return &app;
+}
+
+// "rtuscope profiles", for messages.
+std::string command_line_of(const CLI::App& app) {
+    return app.get_parent() == nullptr ? "rtuscope"
+                                       : command_line_of(*app.get_parent()) + " " + app.get_name();
+}
+
+// A bad command line: one line naming what is wrong, and exit status 2. A command that
+// needs one of its own commands and got none or an unknown one says which there are, and
+// the nearest to what was typed.
+int bad_options(CLI::App& app, const CLI::ParseError& e) {
+    CLI::App* command = reached(app);
+    const std::vector<CLI::App*> commands = command->get_subcommands({});
+    if (!commands.empty() && command->get_subcommands().empty()) {
+        std::string names;
+        for (const CLI::App* c : commands) names += (names.empty() ? "" : ", ") + c->get_name();
+        std::string typed;
+        for (const std::string& arg : command->remaining()) {
+            if (!arg.empty() && arg[0] != '-') {
+                typed = arg;
+                break;
+            }
+        }
+        if (typed.empty()) {
+            const std::vector<std::string> left = command->remaining();
+            if (!left.empty()) {
+                fmt::print(stderr, "rtuscope: error: unknown option \"{}\" ({} --help)\n",
+                           left.front(), command_line_of(*command));
+                return 2;
+            }
+            fmt::print(stderr, "rtuscope: error: {} needs a command: {} ({} --help)\n",
+                       command_line_of(*command), names, command_line_of(*command));
+            return 2;
+        }
+        const CLI::App* nearest = nullptr;
+        std::size_t best = 3;  // at most 2 edits away, or a prefix
+        for (const CLI::App* c : commands) {
+            const std::size_t d =
+                c->get_name().rfind(typed, 0) == 0 ? 0 : edit_distance(typed, c->get_name());
+            if (d < best) {
+                best = d;
+                nearest = c;
+            }
+        }
+        fmt::print(stderr, "rtuscope: error: unknown command \"{}\" ({}: {}){}\n", typed,
+                   command_line_of(*command), names,
+                   nearest != nullptr ? fmt::format("; did you mean \"{}\"?", nearest->get_name())
+                                      : std::string());
+        return 2;
+    }
+    fmt::print(stderr, "rtuscope: error: {} ({} --help)\n", e.what(), command_line_of(*command));
+    return 2;
+}
 
 int run(int argc, char** argv) {
     CLI::App app{
@@ -28,8 +107,14 @@ int run(int argc, char** argv) {
     rtuscope::cli::add_profiles_command(app, exit_code);
     try {
         app.parse(argc, argv);
-    } catch (const CLI::ParseError& e) {
+    } catch (const CLI::CallForHelp& e) {
         return app.exit(e);
+    } catch (const CLI::CallForAllHelp& e) {
+        return app.exit(e);
+    } catch (const CLI::CallForVersion& e) {
+        return app.exit(e);
+    } catch (const CLI::ParseError& e) {
+        return bad_options(app, e);
     }
     return exit_code;
 }

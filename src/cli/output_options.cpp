@@ -109,6 +109,7 @@ std::optional<Decoding> prepare_decoding(const OutputArgs& args, int& exit_code)
 
     auto bus = build_bus(args.bus);
     if (!bus) return fail(bus.error(), 1);
+    if (Status s = assign_devices(**bus, args.bus); !s) return fail(s.error(), 2);
     d.bus = std::move(*bus);
     if (!d.bus->empty()) d.options.bus = d.bus.get();
     if (args.values_csv && d.options.bus == nullptr) {

@@ -67,6 +67,10 @@ int list_profiles(const BusArgs& args) {
         print_error(bus.error());
         return 1;
     }
+    if (Status s = assign_devices(**bus, args); !s) {
+        print_error(s.error());
+        return 2;
+    }
     fmt::print("{:<18} {:<10} {:>9}  {}\n", "name", "addresses", "registers", "device");
     for (const Profile* p : (*bus)->profiles()) {
         fmt::print("{:<18} {:<10} {:>9}  {}\n", p->name,
@@ -82,11 +86,15 @@ int show_profile(const BusArgs& args, const std::string& name) {
         print_error(bus.error());
         return 1;
     }
+    if (Status s = assign_devices(**bus, args); !s) {
+        print_error(s.error());
+        return 2;
+    }
     const Profile* p = (*bus)->find_profile(name);
     if (p == nullptr) {
         fmt::print(stderr, "rtuscope: error: unknown profile \"{}\" (rtuscope profiles list)\n",
                    name);
-        return 1;
+        return 2;
     }
     fmt::print("{}: {}\n", p->name, p->title);
     if (!p->source.empty()) fmt::print("source: {}\n", p->source);
