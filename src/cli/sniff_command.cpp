@@ -138,9 +138,11 @@ int run_demo(DemoArgs args) {
     install_stop_handlers();
     TtyOptions tty;
     tty.ports = {(*bus)->port_path(5)};
-    // The sniffer opens its port first, so that it hears the master's first request.
+    // The sniffer opens its port first, so that it hears the master's first request. A
+    // jthread: when the run ends by an exception (an output that cannot be written), it
+    // is joined on the way out, then the master stopped, as on the normal way.
     std::unique_ptr<sim::Master> master;
-    std::thread starter([&] {
+    std::jthread starter([&] {
         std::this_thread::sleep_for(std::chrono::milliseconds(100));
         auto started = sim::start_master((*bus)->port_path(0), line, {}, 0, 50);
         if (started) {
@@ -152,7 +154,6 @@ int run_demo(DemoArgs args) {
     });
     const int code = run_live(args.live, *decoding, tty);
     starter.join();
-    if (master) master->stop();
     return code;
 }
 

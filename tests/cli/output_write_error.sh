@@ -25,6 +25,10 @@ check decode "$small" --jsonl
 check decode "$small" --values-csv --device 1=pdu485
 check stats "$small"
 check stats "$small" --csv
+# A live run owns threads (the virtual bus, its devices, the master): they are stopped and
+# joined on the error's way out, not left to abort the process.
+check demo --seconds 1
+check demo --seconds 1 --csv
 
 # Far more than stdout's 64 KiB buffer: the refusal comes while records are still being
 # decoded (the same capture 200 times over, ~2.3 MB of JSON Lines).
