@@ -27,6 +27,10 @@ namespace {
 void count(Totals& totals, const Record& record) {
     ++totals.records;
     totals.bytes += record.frame.bytes.size();
+    if (record.notes.has(note_id::cut_by_stop)) {
+        totals.cut_by_stop_bytes += record.frame.bytes.size();
+        return;
+    }
     switch (record.kind) {
         case Kind::request:
             ++totals.requests;
@@ -94,12 +98,14 @@ Status run_pipeline(ChunkSource& source, const PipelineOptions& options, RecordS
     framer_options.expectation = &transactions;
     Framer framer(framer_options, [&](Frame& frame) { transactions.push(frame); });
 
+    const auto stop_requested = [&] { return options.stop != nullptr && options.stop->load(); };
     Chunk chunk;
     Status status = ok_status();
     for (;;) {
+        if (stop_requested()) break;
         Result<bool> more = source.next(chunk);
         if (!more.ok()) {
-            status = more.error();
+            if (!stop_requested()) status = more.error();
             break;
         }
         if (!*more) break;
@@ -121,8 +127,10 @@ Status run_pipeline(ChunkSource& source, const PipelineOptions& options, RecordS
         }
         framer.push(chunk);
     }
-    framer.finish();
-    transactions.finish();
+    // A live input does not end: it is stopped, and what was on the line then is cut.
+    const bool stopped = options.live || stop_requested();
+    framer.finish(stopped);
+    transactions.finish(stopped);
     sink.end(totals, source.remarks());
     if (totals_out != nullptr) *totals_out = totals;
     return status;

@@ -2,6 +2,7 @@
 //   source --chunks--> framer --frames--> transactions --records--> decoder --> sink
 #pragma once
 
+#include <atomic>
 #include <cstdint>
 #include <optional>
 #include <string>
@@ -27,6 +28,9 @@ struct PipelineOptions {
     // up to 16 ms apart even while a frame is still arriving.
     bool live = false;
     Nanos idle_margin = 20'000'000;
+    // Set (by a signal handler) to stop the run at the next record boundary, as if the
+    // input ended there; read errors after it (an interrupted read) are the stop, too.
+    const std::atomic<bool>* stop = nullptr;
 };
 
 // What a sink is told before the first record.
@@ -52,6 +56,9 @@ struct Totals {
     std::uint64_t noise_runs = 0;
     std::uint64_t noise_bytes = 0;
     std::uint64_t bytes = 0;
+    // Bytes of the frame in progress when a run was stopped (--seconds, a signal, the end
+    // of a live stream): noted frame.cut_by_stop, counted here and not as an error.
+    std::uint64_t cut_by_stop_bytes = 0;
 };
 
 class RecordSink {
@@ -66,7 +73,9 @@ class RecordSink {
 };
 
 // Decodes everything the source delivers into the sink. On a source error, everything
-// read before it is still decoded and delivered, then the error is returned. A chunk
+// read before it is still decoded and delivered, then the error is returned. A live run
+// and a run stopped by `options.stop` end with the frame in progress noted as cut by the
+// stop, not as broken on the line. A chunk
 // with no bytes but a time is a live source saying that nothing came until then.
 // `totals`, when given, receives the closing counts.
 Status run_pipeline(ChunkSource& source, const PipelineOptions& options, RecordSink& sink,

@@ -629,14 +629,34 @@ TEST(PcapReader, NotAPcapFile) {
         << source.error().to_string();
 }
 
-TEST(PcapReader, TruncatedFileGivesThePacketsBeforeThenTheError) {
+// A file cut off inside its last packet (a capture killed, or still being written) reads
+// as far as it goes, as tshark reads it, and says where it ends.
+TEST(PcapReader, FileCutOffInItsLastPacketGivesThePacketsBefore) {
     std::string file = pcap_file(147, {{kT0, kRequest}, {kT0 + 1000, kAnswer}, {kT0, kRequest}});
-    file.resize(file.size() - 3);
-    const Drained d = read_memory(file);
-    ASSERT_EQ(d.chunks.size(), 2U);
+    for (const std::size_t cut :
+         {std::size_t{3}, kRequest.size() + 4}) {  // in the data, the header
+        SCOPED_TRACE(cut);
+        const Drained d = read_memory(file.substr(0, file.size() - cut));
+        ASSERT_EQ(d.chunks.size(), 2U);
+        EXPECT_FALSE(d.error) << d.error->to_string();
+        ASSERT_EQ(d.remarks.size(), 1U);
+        EXPECT_EQ(d.remarks[0],
+                  "the file ends inside packet 3 (cut off before it was complete); 2 packets read");
+    }
+}
+
+// A broken packet record before the end is an error, after the packets before it.
+TEST(PcapReader, BrokenRecordIsAnErrorAfterThePacketsBefore) {
+    std::string file = pcap_file(147, {{kT0, kRequest}, {kT0 + 1000, kAnswer}});
+    std::string broken = file;
+    const std::size_t second = 24 + 16 + kRequest.size();
+    broken[second + 8] = '\xFF';  // captured length 0xFF.. bytes: past the snapshot length
+    broken[second + 9] = '\xFF';
+    broken[second + 10] = '\xFF';
+    const Drained d = read_memory(broken);
+    ASSERT_EQ(d.chunks.size(), 1U);
     ASSERT_TRUE(d.error);
-    EXPECT_TRUE(d.error->to_string().starts_with("mem.pcap: packet 3: truncated dump file"))
-        << d.error->to_string();
+    EXPECT_TRUE(d.error->to_string().starts_with("mem.pcap: packet 2: ")) << d.error->to_string();
 }
 
 // --- detection and opening --------------------------------------------------------------

@@ -114,3 +114,56 @@ TEST(LineSettings, CharacterTimesAndFixedTimersAbove19200) {
 
 }  // namespace
 }  // namespace rtuscope
+
+namespace rtuscope {
+namespace {
+
+// A request, then the first 3 bytes of its answer when the input stops: the end of a
+// file is the end of what was on the line (the answer was cut short), but a live run that
+// is stopped (--seconds, a signal, the end of the stream) cut it itself: no bus error, and
+// the request waited for an answer that could still have come.
+const char* const kStoppedMidAnswer =
+    "# rtuscope capture v1\n"
+    "# serial 9600 8N1\n"
+    "0.010000 01 03 00 00 00 02 C4 0B\n"
+    "0.020000 01 03 04\n";
+
+TEST(PipelineStop, AFrameCutByTheStopIsNoError) {
+    for (const bool live : {false, true}) {
+        SCOPED_TRACE(live ? "live" : "file");
+        auto source = source_from_memory(kStoppedMidAnswer, "mem", InputFormat::capture);
+        ASSERT_TRUE(source);
+        PipelineOptions options;
+        options.live = live;
+        CollectingSink sink;
+        ASSERT_TRUE(run_pipeline(**source, options, sink));
+        ASSERT_EQ(sink.records.size(), 2U);
+        const Record& cut = sink.records[1];
+        EXPECT_EQ(cut.frame.bytes, (test::Bytes{0x01, 0x03, 0x04}));
+        EXPECT_EQ(cut.notes.has(note_id::cut_by_stop), live);
+        EXPECT_EQ(cut.notes.has(note_id::truncated), !live);
+        EXPECT_EQ(sink.totals.invalid, live ? 0U : 1U);
+        EXPECT_EQ(sink.totals.cut_by_stop_bytes, live ? 3U : 0U);
+        const Record& request = sink.records[0];
+        EXPECT_EQ(request.notes.has(note_id::stopped_before_answer), live);
+        EXPECT_EQ(sink.totals.unanswered, 0U);  // the broken answer, or the stop
+    }
+}
+
+// A stop asked for (a signal) ends a decode of a file at the chunk it comes: here before
+// the first, so nothing is read, and the run still ends cleanly.
+TEST(PipelineStop, AStopFlagEndsTheRunAtTheNextChunk) {
+    auto source = source_from_memory(kStoppedMidAnswer, "mem", InputFormat::capture);
+    ASSERT_TRUE(source);
+    std::atomic<bool> stop{false};
+    PipelineOptions options;
+    options.stop = &stop;
+    CollectingSink sink;
+    stop.store(true);
+    ASSERT_TRUE(run_pipeline(**source, options, sink));
+    EXPECT_TRUE(sink.records.empty());
+    EXPECT_TRUE(sink.ended);
+}
+
+}  // namespace
+}  // namespace rtuscope

@@ -8,6 +8,7 @@
 #include "errors.hpp"
 #include "input/sources.hpp"
 #include "output_options.hpp"
+#include "stop_signals.hpp"
 
 namespace rtuscope::cli {
 namespace {
@@ -32,6 +33,10 @@ int run_decode(const DecodeArgs& args) {
     auto source = open_source(args.file, input_format);
     if (!source) return print_error(source.error()), 1;
 
+    // Ctrl-C or SIGTERM stop at a record boundary: every output flushed and closed (the
+    // --pcap file too), the summary printed, then the shell's status for the signal.
+    install_stop_handlers();
+    decoding->options.stop = &g_stop;
     const Status status = run_pipeline(**source, decoding->options, *decoding->sink);
     if (args.output.csv || args.output.values_csv || args.output.jsonl || args.output.stats) {
         for (const std::string& remark : (*source)->remarks()) {
@@ -40,7 +45,7 @@ int run_decode(const DecodeArgs& args) {
     }
     if (!status) return print_error(status.error()), 1;
     if (Status pcap = pcap_status(*decoding); !pcap) return print_error(pcap.error()), 1;
-    return 0;
+    return stop_signal() != 0 ? 128 + stop_signal() : 0;
 }
 
 }  // namespace

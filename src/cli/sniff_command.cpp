@@ -5,7 +5,6 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
-#include <csignal>
 #include <memory>
 #include <string>
 #include <thread>
@@ -15,28 +14,12 @@
 #include "input/capture_writer.hpp"
 #include "input/tty.hpp"
 #include "output_options.hpp"
+#include "stop_signals.hpp"
 #include "sim/sim.hpp"
 #include "util/text.hpp"
 
 namespace rtuscope::cli {
 namespace {
-
-std::atomic<bool> g_stop{false};
-
-extern "C" void on_stop_signal(int /*signal*/) {
-    g_stop.store(true);
-}
-
-// Ctrl-C and SIGTERM end the run cleanly: the tty source sees the flag (its poll() is
-// interrupted, no SA_RESTART) and the pipeline flushes everything decided so far.
-void install_stop_handlers() {
-    struct sigaction action {};
-    action.sa_handler = on_stop_signal;
-    sigemptyset(&action.sa_mask);
-    action.sa_flags = 0;
-    sigaction(SIGINT, &action, nullptr);
-    sigaction(SIGTERM, &action, nullptr);
-}
 
 struct LiveArgs {
     OutputArgs output;

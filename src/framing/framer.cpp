@@ -234,7 +234,8 @@ void Framer::idle(Nanos now, Nanos idle_margin) {
     decide(true);
 }
 
-void Framer::finish() {
+void Framer::finish(bool stopped) {
+    stopped_ = stopped;
     decide(true);
 }
 
@@ -652,11 +653,20 @@ void Framer::classify_unframed(std::size_t from, std::size_t to) {
                 continue;
             }
         }
-        if (n >= 3 && bounded_by_gaps && emit_if_truncated(start, n)) {
+        // What was on the line when a run stopped is cut by the stop, whatever its gaps.
+        const bool cut_by_stop = stopped_ && end == bytes_.size();
+        if (n >= 3 && (bounded_by_gaps || cut_by_stop) && emit_if_truncated(start, n)) {
             start = end;
             continue;
         }
-        emit(start, n, RecordClass::noise, Reading::unknown, Delimiter::gap, {});
+        if (cut_by_stop) {
+            const Note cut{note_id::cut_by_stop,
+                           fmt::format("{} {} on the line when the run stopped", n,
+                                       n == 1 ? "byte" : "bytes")};
+            emit(start, n, RecordClass::noise, Reading::unknown, Delimiter::end_of_input, {}, &cut);
+        } else {
+            emit(start, n, RecordClass::noise, Reading::unknown, Delimiter::gap, {});
+        }
         start = end;
     }
 }
@@ -671,8 +681,12 @@ bool Framer::emit_if_truncated(std::size_t at, std::size_t n) {
                             answer_first ? Role::request : Role::response}) {
         const FrameLength& length = lengths.of(role);
         if (length.kind == FrameLength::Kind::fixed && length.bytes > n) {
-            const Note truncated{note_id::truncated,
-                                 fmt::format("cut short: {} of {} bytes", n, length.bytes)};
+            const Note truncated =
+                stopped_ && at + n == bytes_.size()
+                    ? Note{note_id::cut_by_stop,
+                           fmt::format("cut by the stop: {} of {} bytes had come", n, length.bytes)}
+                    : Note{note_id::truncated,
+                           fmt::format("cut short: {} of {} bytes", n, length.bytes)};
             emit(at, n, RecordClass::invalid, reading_for(role, piece[1]), Delimiter::gap, {},
                  &truncated);
             return true;

@@ -51,8 +51,10 @@ class Framer {
     // ended there (the next byte will come after a gap anyway), so a frame whose end no
     // length tells is printed when the line goes idle, not when the next frame starts.
     void idle(Nanos now, Nanos idle_margin);
-    // No more input: decides and emits everything still buffered.
-    void finish();
+    // No more input: decides and emits everything still buffered. `stopped`: the input did
+    // not end, the run was stopped (a live run, a signal): bytes at the end that form no
+    // whole frame were cut by the stop, not broken on the line, and are noted so.
+    void finish(bool stopped = false);
 
   private:
     enum class Outcome : std::uint8_t { frame, no_frame, need_more };
@@ -197,6 +199,7 @@ class Framer {
     std::uint32_t last_channel_ = 0;              // the last chunk's
     Nanos last_end_ = kNoTime;
     bool seen_bytes_ = false;
+    bool stopped_ = false;  // finish(true): the bytes at the end were cut by the stop
     bool previous_chunk_single_ = false;
 };
 

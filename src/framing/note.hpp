@@ -49,11 +49,15 @@ inline constexpr const char* noise = "frame.noise";
 inline constexpr const char* char_error = "frame.char_error";  // parity/framing error (tty)
 inline constexpr const char* reserved_address = "frame.reserved_address";  // slave 248-255
 inline constexpr const char* time_backwards = "frame.time_backwards";      // capture clock jumped
+// in progress when a run stopped (--seconds, a signal, the end of a live stream): not an error
+inline constexpr const char* cut_by_stop = "frame.cut_by_stop";
 // transactions
 inline constexpr const char* no_answer = "txn.no_answer";
 inline constexpr const char* unsolicited = "txn.unsolicited";  // answer with no request
 inline constexpr const char* unexpected_exception = "txn.unexpected_exception";
 inline constexpr const char* duplicate_answer = "txn.duplicate_answer";  // 2 answers, 1 request
+// still waiting for its answer when a run stopped: not counted as unanswered
+inline constexpr const char* stopped_before_answer = "txn.stopped_before_answer";
 // PDU decoding
 inline constexpr const char* byte_count_mismatch = "pdu.byte_count_mismatch";
 inline constexpr const char* malformed = "pdu.malformed";

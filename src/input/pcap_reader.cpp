@@ -281,9 +281,17 @@ class PcapSource final : public ChunkSource {
             const int rc = pcap_next_ex(pcap_, &header, &data);
             if (rc == PCAP_ERROR_BREAK) return false;  // end of file
             if (rc != 1) {
-                // libpcap says "truncated dump file; ..." and the like.
-                return Error{fmt::format("packet {}: {}", packets_ + 1, pcap_geterr(pcap_)),
-                             info_.name};
+                const std::string why = pcap_geterr(pcap_);
+                // A file cut off in its last packet (a capture killed or still being written)
+                // reads as far as it goes, as tshark reads it; a broken one stops here.
+                if (why.starts_with("truncated")) {
+                    cut_off_ = fmt::format(
+                        "the file ends inside packet {} (cut off before it was complete); "
+                        "{} packets read",
+                        packets_ + 1, packets_);
+                    return false;
+                }
+                return Error{fmt::format("packet {}: {}", packets_ + 1, why), info_.name};
             }
             ++packets_;
             Result<Extracted> got = read_packet(dlt_, Bytes(data, header->caplen), packets_);
@@ -320,6 +328,7 @@ class PcapSource final : public ChunkSource {
 
     [[nodiscard]] std::vector<std::string> remarks() const override {
         std::vector<std::string> out;
+        if (!cut_off_.empty()) out.push_back(cut_off_);
         for (const auto& [why, count] : skipped_) {
             out.push_back(fmt::format("skipped {} of {} packets: {}", count, packets_, why));
         }
@@ -333,6 +342,7 @@ class PcapSource final : public ChunkSource {
   private:
     pcap_t* pcap_;
     std::unique_ptr<char[]> read_buffer_;
+    std::string cut_off_;  // the remark for a file cut off in its last packet
     int dlt_;
     SourceInfo info_;
     // Reasons are counted apart up to a bound: each dissector name is one, and a crafted

@@ -49,6 +49,13 @@ Result<bool> InputBuffer::fill() {
     end_ += n;
     if (n == 0) {
         if (std::ferror(file_) != 0) {
+            // A read interrupted by a stop signal is the end of this run's input; the
+            // pipeline sees the stop and says so.
+            if (errno == EINTR) {
+                std::clearerr(file_);
+                eof_ = true;
+                return false;
+            }
             return Error{fmt::format("cannot read: {}", std::strerror(errno)), name_};
         }
         eof_ = true;

@@ -146,7 +146,11 @@ void PcapSink::write(const void* data, std::size_t size) {
 void PcapSink::begin(const SessionInfo& /*session*/) {}
 
 void PcapSink::record(const Record& record) {
-    if (record.kind == Kind::noise || !record.frame.is_frame()) return;
+    // Frames only: noise is none, nor the part of one a stop cut off.
+    if (record.kind == Kind::noise || !record.frame.is_frame() ||
+        record.notes.has(note_id::cut_by_stop)) {
+        return;
+    }
     packet_.clear();
     append_pcap_packet(packet_, record);
     const Nanos t = std::max<Nanos>(0, packet_time(record));  // pcap has no negative times

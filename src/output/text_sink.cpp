@@ -150,6 +150,11 @@ class TextSink final : public RecordSink {
         fmt::print(file, "-- CRC: {} bad, {} swapped; {} without answer; {} without request\n",
                    t.crc_bad, t.crc_swapped, n(t.unanswered, "request", "requests"),
                    n(t.unsolicited, "answer", "answers"));
+        if (t.cut_by_stop_bytes != 0) {
+            fmt::print(file,
+                       "-- note: the run stopped with {} of a frame on the line (not an error)\n",
+                       n(t.cut_by_stop_bytes, "byte", "bytes"));
+        }
         for (const std::string& remark : remarks) fmt::print(file, "-- note: {}\n", remark);
         flush_output(file);
     }

@@ -167,7 +167,8 @@ void Transactions::push(Frame& frame) {
 
     // A frame seen with a bad CRC may still have reached its slave intact (the damage can
     // be at the tap), so invalid frames take part in pairing by their reading.
-    const bool invalid = record.kind == Kind::invalid;
+    // What the stop cut short is neither: it answers nothing and asks nothing.
+    const bool invalid = record.kind == Kind::invalid && !record.notes.has(note_id::cut_by_stop);
     const bool is_answer = record.kind == Kind::response || record.kind == Kind::exception ||
                            (invalid && answer_reading);
     const bool is_request = record.kind == Kind::request || record.kind == Kind::broadcast ||
@@ -233,7 +234,14 @@ void Transactions::tick(Nanos now) {
     }
 }
 
-void Transactions::finish() {
+void Transactions::finish(bool stopped) {
+    if (stopped && awaiting_) {
+        // Its answer may have been on the way: no fault of the device's.
+        held(*awaiting_)
+            .notes.add(note_id::stopped_before_answer,
+                       "the run stopped before an answer could come");
+        awaiting_.reset();
+    }
     give_up_on_request("no answer before the end of the input");
     release();
 }

@@ -75,7 +75,9 @@ class Transactions : public AnswerExpectation {
     // Live input: the time is `now` and nothing came; a request whose timeout has passed
     // is given up on now rather than when the next frame arrives.
     void tick(Nanos now);
-    void finish();
+    // `stopped`: the run was stopped rather than its input ended; a request still waiting
+    // is noted txn.stopped_before_answer, not txn.no_answer.
+    void finish(bool stopped = false);
 
     [[nodiscard]] const AwaitedAnswer* awaited(Nanos at) const override;
 

@@ -32,6 +32,8 @@ void BusStats::add(const Record& record) {
     if (has_time(f.end) && (!has_time(bus_.last_end) || f.end > bus_.last_end)) {
         bus_.last_end = f.end;
     }
+    // What a stop cut short was on the line, but is no fault of the bus's.
+    if (record.notes.has(note_id::cut_by_stop)) return;
     if (record.kind == Kind::noise) {
         ++bus_.noise_runs;
         bus_.noise_bytes += f.bytes.size();
@@ -46,8 +48,11 @@ void BusStats::add(const Record& record) {
     const Key key{f.slave(), static_cast<std::uint8_t>(f.function() & 0x7FU)};
     const bool crc_error = f.crc.status == CrcStatus::bad || f.crc.status == CrcStatus::swapped;
     const bool invalid = record.kind == Kind::invalid;
-    // What the pairing took for a request or an answer, broken ones included.
-    const bool request = record.kind == Kind::request || (invalid && f.reading == Reading::request);
+    // What the pairing took for a request or an answer, broken ones included. A request
+    // still waiting when the run stopped has no outcome yet: it is not counted.
+    const bool request =
+        (record.kind == Kind::request || (invalid && f.reading == Reading::request)) &&
+        !record.notes.has(note_id::stopped_before_answer);
     const bool answer = record.kind == Kind::response || record.kind == Kind::exception ||
                         (invalid && record.request_number != 0);
     // Rows only for what has a column: an unknown frame alone would be an empty row.

@@ -1,0 +1,20 @@
+// Ctrl-C (SIGINT) and SIGTERM stop a run cleanly: the pipeline stops at a record boundary,
+// every output is flushed and closed, and the summary is printed. A second signal of the
+// same kind ends the process at once, as it would without rtuscope's handler.
+#pragma once
+
+#include <atomic>
+
+namespace rtuscope::cli {
+
+// Set by the first SIGINT or SIGTERM.
+extern std::atomic<bool> g_stop;
+
+// Installs the handlers. Blocking reads are interrupted (no SA_RESTART), so that a run
+// waiting on an idle pipe or port stops too.
+void install_stop_handlers();
+
+// The signal that stopped the run, 0 while none has.
+int stop_signal();
+
+}  // namespace rtuscope::cli
