@@ -339,7 +339,9 @@ TrafficStats generate_traffic(const TrafficOptions& options,
 }
 
 std::string capture_header(const TrafficOptions& options) {
-    return rtuscope::capture_header(LineSettings{.baud = options.baud});
+    SourceInfo header;
+    header.line = LineSettings{.baud = options.baud};
+    return rtuscope::capture_header(header);
 }
 
 TrafficInMemory traffic_in_memory(const TrafficOptions& options,

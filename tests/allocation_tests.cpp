@@ -122,7 +122,9 @@ using test::raw_dump;
 std::string timed_capture(const std::vector<Bytes>& frames, bool per_byte) {
     LineSettings line;
     line.baud = 115200;
-    std::string capture = capture_header(line);
+    SourceInfo header;
+    header.line = line;
+    std::string capture = capture_header(header);
     Chunk chunk;
     chunk.time = 1'000'000'000;
     for (const Bytes& frame : frames) {

@@ -69,7 +69,8 @@ TEST(Integration, EveryTransactionOfTheMasterIsDecodedAndPaired) {
     ASSERT_TRUE(source) << source.error().to_string();
     const test::TempDir dir;
     const std::string capture = dir.file("integration.rtucap");
-    auto recording = record_capture(std::move(*source), capture);
+    const SourceInfo header = (*source)->info();
+    auto recording = record_capture(std::move(*source), capture, header);
     ASSERT_TRUE(recording);
 
     constexpr std::size_t kCycles = 3;  // the third cycle writes

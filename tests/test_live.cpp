@@ -288,7 +288,8 @@ TEST(LivePipeline, RecordsAreFlushedWhileTheLineRunsAndTheCaptureMatches) {
     ASSERT_TRUE(source);
     const test::TempDir dir;
     const std::string path = dir.file("live.rtucap");
-    auto recording = record_capture(std::move(*source), path);
+    const SourceInfo header = (*source)->info();
+    auto recording = record_capture(std::move(*source), path, header);
     ASSERT_TRUE(recording);
     const Bytes read = with_crc({0x01, 0x03, 0x00, 0x00, 0x00, 0x01});
     const Bytes answer = with_crc({0x01, 0x03, 0x02, 0x18, 0x18});

@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "input/capture_writer.hpp"
 #include "input/sources.hpp"
 #include "support.hpp"
 
@@ -775,6 +776,45 @@ TEST(CaptureReader, OverlongLineIsAnErrorNotAnEndlessBuffer) {
     ASSERT_TRUE(d.error);
     EXPECT_EQ(d.error->to_string(),
               file + ":3: line longer than 1048576 bytes; is this a text file?");
+}
+
+}  // namespace
+}  // namespace rtuscope
+
+namespace rtuscope {
+namespace {
+
+// What a live run writes into a -w capture's header comes back when the capture is read:
+// the line, the program, the device map and an embedded profile's text, line for line.
+TEST(CaptureHeader, DeviceMapAndEmbeddedProfilesComeBack) {
+    SourceInfo written;
+    written.line = LineSettings{.baud = 19200};
+    written.written_by = "rtuscope 0.1.0";
+    written.devices = {{1, "zb-uvi485"}, {7, "my-meter"}};
+    written.embedded_profiles = {{"my-meter", "[device]\nname = \"my-meter\"\n\n# a comment\n"}};
+    written.name = "/dev/ttyUSB0";
+    const std::string header = capture_header(written);
+    auto source = source_from_memory(header + "1.000 01 03 00 00 00 02 C4 0B\n", "mem",
+                                     InputFormat::automatic);
+    ASSERT_TRUE(source) << source.error().to_string();
+    const SourceInfo& read = (*source)->info();
+    ASSERT_TRUE(read.line);
+    EXPECT_EQ(read.line->baud, 19200U);
+    EXPECT_EQ(read.written_by, "rtuscope 0.1.0");
+    EXPECT_EQ(read.devices, written.devices);
+    EXPECT_EQ(read.embedded_profiles, written.embedded_profiles);
+    Chunk chunk;
+    ASSERT_TRUE((*source)->next(chunk));
+    EXPECT_EQ(chunk.bytes.size(), 8U);
+}
+
+TEST(CaptureHeader, BadDeviceLineIsAnErrorAtItsPlace) {
+    auto source = source_from_memory("# rtuscope capture v1\n# device 300 pdu485\n", "mem",
+                                     InputFormat::automatic);
+    ASSERT_FALSE(source);
+    EXPECT_EQ(source.error().to_string(),
+              "mem:2:10: \"# device\" needs a slave address (0-255) and a profile name, e.g. "
+              "\"# device 3 pdu485\"");
 }
 
 }  // namespace

@@ -888,7 +888,10 @@ TEST(StatsJsonl, CheckerRejectsBrokenJson) {
 
 TEST(StatsJsonl, StringsAreEscaped) {
     BusStats s;
-    s.begin(SessionInfo{{"we\"ird\n.rtucap", "capture", {}, false, false}, {}, ""});
+    SessionInfo session;
+    session.source.name = "we\"ird\n.rtucap";
+    session.source.format = "capture";
+    s.begin(session);
     s.finish();
     const std::vector<std::string> lines = lines_of(render_stats(s, StatsFormat::jsonl));
     ASSERT_EQ(lines.size(), 1U);

@@ -20,10 +20,6 @@ struct DecodeArgs {
 };
 
 int run_decode(const DecodeArgs& args) {
-    int exit_code = 0;
-    auto decoding = prepare_decoding(args.output, exit_code);
-    if (!decoding) return exit_code;
-
     InputFormat input_format = InputFormat::automatic;
     if (args.input_format != "auto") {
         auto parsed = parse_input_format(args.input_format);
@@ -32,6 +28,10 @@ int run_decode(const DecodeArgs& args) {
     }
     auto source = open_source(args.file, input_format);
     if (!source) return print_error(source.error()), 1;
+    // After the input's header is read: it may give the device map.
+    int exit_code = 0;
+    auto decoding = prepare_decoding(args.output, exit_code, &(*source)->info());
+    if (!decoding) return exit_code;
 
     // Ctrl-C or SIGTERM stop at a record boundary: every output flushed and closed (the
     // --pcap file too), the summary printed, then the shell's status for the signal.

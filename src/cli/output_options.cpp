@@ -1,7 +1,9 @@
 #include "output_options.hpp"
 
+#include <fmt/format.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdio>
@@ -13,6 +15,7 @@
 #include "output/sinks.hpp"
 #include "stats/report.hpp"
 #include "util/io_block.hpp"
+#include "util/text_file.hpp"
 
 namespace rtuscope::cli {
 
@@ -85,7 +88,81 @@ void add_stats_options(CLI::App& cmd, OutputArgs& args) {
     add_bus_options(cmd, args.bus);
 }
 
-std::optional<Decoding> prepare_decoding(const OutputArgs& args, int& exit_code) {
+namespace {
+
+// The device map a capture's header gives (and the profiles it embeds), unless --device
+// or --bus say otherwise: the options win, and a note says what they replace.
+Status use_capture_header(Bus& bus, const SourceInfo& input, const OutputArgs& args) {
+    if (input.devices.empty()) return ok_status();
+    std::string header_map;
+    for (const auto& [address, name] : input.devices) {
+        header_map += fmt::format("{}{}={}", header_map.empty() ? "" : ", ", address, name);
+    }
+    if (!args.bus.devices.empty() || !args.bus.bus_file.empty()) {
+        fmt::print(stderr, "rtuscope: note: {}: {} replaces the device map of its header ({})\n",
+                   input.name, args.bus.bus_file.empty() ? "--device" : "--bus", header_map);
+        return ok_status();
+    }
+    for (const auto& [name, toml] : input.embedded_profiles) {
+        const Profile* known = bus.find_profile(name);
+        if (known != nullptr && !known->file.starts_with("<bundled>")) continue;  // --profile
+        ProfileLoad load = load_profile_text(toml, input.name + ": profile " + name);
+        if (!load.profile) {
+            print_problems(load.problems);
+            return Error{fmt::format("the profile \"{}\" in its header has mistakes", name),
+                         input.name};
+        }
+        bus.add_profile(std::move(*load.profile));
+    }
+    for (const auto& [address, name] : input.devices) {
+        if (!bus.assign(address, name)) {
+            fmt::print(stderr,
+                       "rtuscope: note: {}: its header puts the profile \"{}\" on slave {}, "
+                       "which this rtuscope does not know: slave {} is decoded without it\n",
+                       input.name, name, address, address);
+        }
+    }
+    return ok_status();
+}
+
+// --baud or --format over a capture header that gives the line: said, not silent.
+void note_line_replaced(const SourceInfo& input, const OutputArgs& args) {
+    if (!input.line || (args.baud.empty() && args.format.empty())) return;
+    fmt::print(stderr, "rtuscope: note: {}: {} replace{} the line of its header ({} {})\n",
+               input.name,
+               !args.baud.empty() && !args.format.empty() ? "--baud and --format"
+               : !args.baud.empty()                       ? "--baud"
+                                                          : "--format",
+               !args.baud.empty() && !args.format.empty() ? "" : "s", input.line->baud,
+               input.line->format());
+}
+
+}  // namespace
+
+SourceInfo live_capture_header(const Decoding& decoding, const SourceInfo& live) {
+    SourceInfo header;
+    header.line = live.line;
+    header.name = live.name;
+    header.written_by = "rtuscope " RTUSCOPE_VERSION;
+    if (decoding.options.bus == nullptr) return header;
+    std::vector<const Profile*> embedded;
+    for (unsigned address = 0; address < 256; ++address) {
+        const Profile* p = decoding.options.bus->profile_for(static_cast<std::uint8_t>(address));
+        if (p == nullptr) continue;
+        header.devices.emplace_back(static_cast<std::uint8_t>(address), p->name);
+        if (p->file.starts_with("<bundled>") ||
+            std::find(embedded.begin(), embedded.end(), p) != embedded.end()) {
+            continue;
+        }
+        embedded.push_back(p);
+        auto text = read_text_file(p->file);
+        if (text) header.embedded_profiles.emplace_back(p->name, std::move(*text));
+    }
+    return header;
+}
+
+std::optional<Decoding> prepare_decoding(const OutputArgs& args, int& exit_code,
+                                         const SourceInfo* input) {
     Decoding d;
     auto fail = [&](const Error& error, int code) {
         print_error(error);
@@ -111,6 +188,10 @@ std::optional<Decoding> prepare_decoding(const OutputArgs& args, int& exit_code)
     if (!bus) return fail(bus.error(), 1);
     if (Status s = assign_devices(**bus, args.bus); !s) return fail(s.error(), 2);
     d.bus = std::move(*bus);
+    if (input != nullptr) {
+        if (Status s = use_capture_header(*d.bus, *input, args); !s) return fail(s.error(), 1);
+        note_line_replaced(*input, args);
+    }
     if (!d.bus->empty()) d.options.bus = d.bus.get();
     if (args.values_csv && d.options.bus == nullptr) {
         return fail(Error{"--values-csv needs to know the devices: --device ADDR=PROFILE or "

@@ -47,7 +47,15 @@ struct Decoding {
     std::unique_ptr<RecordSink> sink;
     PcapSink* pcap = nullptr;  // inside `sink`, when --pcap was given
 };
-std::optional<Decoding> prepare_decoding(const OutputArgs& args, int& exit_code);
+// `input`: the opened input's SourceInfo, whose capture header may give the device map and
+// profiles (used unless --device or --bus give their own: a note says so).
+std::optional<Decoding> prepare_decoding(const OutputArgs& args, int& exit_code,
+                                         const SourceInfo* input = nullptr);
+
+// What a `-w` capture's header holds of a live run: the port's line, the program, the
+// device map and the profiles that are not bundled (their TOML), so that the capture
+// decodes the same later, on any machine.
+SourceInfo live_capture_header(const Decoding& decoding, const SourceInfo& live);
 
 // After the run: a --pcap file that could not be written is an error (printed here).
 Status pcap_status(const Decoding& decoding);

@@ -14,8 +14,8 @@
 #include "input/capture_writer.hpp"
 #include "input/tty.hpp"
 #include "output_options.hpp"
-#include "stop_signals.hpp"
 #include "sim/sim.hpp"
+#include "stop_signals.hpp"
 #include "util/text.hpp"
 
 namespace rtuscope::cli {
@@ -48,7 +48,8 @@ int run_live(const LiveArgs& args, Decoding& decoding, TtyOptions tty) {
     for (const std::string& notice : notices) fmt::print(stderr, "rtuscope: note: {}\n", notice);
     std::unique_ptr<ChunkSource> input = std::move(*source);
     if (!args.write_file.empty()) {
-        auto recording = record_capture(std::move(input), args.write_file);
+        const SourceInfo header = live_capture_header(decoding, input->info());
+        auto recording = record_capture(std::move(input), args.write_file, header);
         if (!recording) return print_error(recording.error()), 1;
         input = std::move(*recording);
     }

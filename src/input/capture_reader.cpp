@@ -12,6 +12,7 @@
 
 #include <array>
 #include <bit>
+#include <charconv>
 #include <cstdint>
 #include <cstring>
 #include <limits>
@@ -221,11 +222,13 @@ class CaptureReader final : public ChunkSource {
             if (!more) return more.error();
             if (!*more) {
                 at_end_ = true;
+                in_header_ = false;
                 return ok_status();
             }
             Result<bool> comment = comment_line(line);
             if (!comment) return comment.error();
             if (!*comment) {
+                in_header_ = false;
                 pending_ = line;
                 has_pending_ = true;
                 return ok_status();
@@ -313,14 +316,23 @@ class CaptureReader final : public ChunkSource {
         return result;
     }
 
-    // True for blank and comment lines (reading `# serial` on the way), false for data.
+    // True for blank and comment lines (reading the header's `# serial`, `# device`,
+    // `# profile` on the way), false for data.
     Result<bool> comment_line(std::string_view line) {
         std::size_t i = skip_space(line, 0);
         if (i == line.size()) return true;
         if (line[i] != '#') return false;
+        if (in_header_ && embedding_ != nullptr && line.substr(i).starts_with("#|")) {
+            std::string_view text = line.substr(i + 2);
+            if (text.starts_with(' ')) text.remove_prefix(1);
+            embedding_->append(text).append("\n");
+            return true;
+        }
         i = skip_space(line, i + 1);
         std::size_t e = token_end(line, i);
-        if (line.substr(i, e - i) != "serial") return true;
+        const std::string_view word = line.substr(i, e - i);
+        if (in_header_ && word != "serial") return header_comment(line, word, e);
+        if (word != "serial") return true;
 
         const auto missing = [&](std::size_t at) {
             return error_at(at,
@@ -349,6 +361,41 @@ class CaptureReader final : public ChunkSource {
         }
         settings->baud = *baud;
         info_.line = *settings;
+        return true;
+    }
+
+    // `# written by rtuscope 0.1.0`, `# device 3 pdu485`, `# profile NAME` ... `# end
+    // profile` (the profile's lines each behind `#|`): the header's word `word` ends at `e`.
+    Result<bool> header_comment(std::string_view line, std::string_view word, std::size_t e) {
+        const auto rest = [&](std::size_t from) {
+            std::string_view r = line.substr(skip_space(line, from));
+            while (!r.empty() && (r.back() == ' ' || r.back() == '\t')) r.remove_suffix(1);
+            return r;
+        };
+        if (word == "written" && rest(e).starts_with("by ")) {
+            info_.written_by = std::string(rest(e).substr(3));
+        } else if (word == "device") {
+            const std::size_t address_at = skip_space(line, e);
+            const std::size_t address_end = token_end(line, address_at);
+            unsigned address = 0;
+            const std::string_view digits = line.substr(address_at, address_end - address_at);
+            const auto [end, ec] =
+                std::from_chars(digits.data(), digits.data() + digits.size(), address);
+            const std::string_view name = rest(address_end);
+            if (digits.empty() || ec != std::errc{} || end != digits.data() + digits.size() ||
+                address > 255 || name.empty()) {
+                return error_at(address_at,
+                                "\"# device\" needs a slave address (0-255) and a profile name, "
+                                "e.g. \"# device 3 pdu485\"");
+            }
+            info_.devices.emplace_back(static_cast<std::uint8_t>(address), std::string(name));
+        } else if (word == "profile") {
+            const std::string_view name = rest(e);
+            if (name.empty()) return error_at(e, "\"# profile\" needs the profile's name");
+            embedding_ = &info_.embedded_profiles.emplace_back(std::string(name), "").second;
+        } else if (word == "end" && rest(e) == "profile") {
+            embedding_ = nullptr;
+        }
         return true;
     }
 
@@ -469,7 +516,9 @@ class CaptureReader final : public ChunkSource {
     std::string_view pending_;
     bool has_pending_ = false;
     bool at_end_ = false;
-    std::optional<Error> failed_;  // errors stick: the reader cannot tell where to go on
+    bool in_header_ = true;             // before the first data line
+    std::string* embedding_ = nullptr;  // the profile text `#|` lines go to, in the header
+    std::optional<Error> failed_;       // errors stick: the reader cannot tell where to go on
 };
 
 }  // namespace

@@ -6,6 +6,7 @@
 
 #include <cerrno>
 #include <cstring>
+#include <string_view>
 
 #include "util/text.hpp"
 
@@ -69,22 +70,38 @@ class RecordingSource final : public ChunkSource {
 
 }  // namespace
 
-std::string capture_header(const std::optional<LineSettings>& line) {
-    std::string header = "# rtuscope capture v1\n";
-    if (line) header += fmt::format("# serial {} {}\n", line->baud, line->format());
-    return header;
+std::string capture_header(const SourceInfo& header) {
+    std::string text = "# rtuscope capture v1\n";
+    if (header.line)
+        text += fmt::format("# serial {} {}\n", header.line->baud, header.line->format());
+    if (!header.written_by.empty()) text += fmt::format("# written by {}\n", header.written_by);
+    for (const auto& [address, profile] : header.devices) {
+        text += fmt::format("# device {} {}\n", address, profile);
+    }
+    for (const auto& [name, toml] : header.embedded_profiles) {
+        text += fmt::format("# profile {}\n", name);
+        std::string_view rest = toml;
+        while (!rest.empty()) {
+            const std::size_t end = std::min(rest.find('\n'), rest.size());
+            text += "#| ";
+            text += rest.substr(0, end);
+            text += '\n';
+            rest.remove_prefix(std::min(end + 1, rest.size()));
+        }
+        text += "# end profile\n";
+    }
+    if (!header.name.empty()) text += fmt::format("# recorded live from {}\n", header.name);
+    return text;
 }
 
 Result<std::unique_ptr<ChunkSource>> record_capture(std::unique_ptr<ChunkSource> source,
-                                                    const std::string& path) {
+                                                    const std::string& path,
+                                                    const SourceInfo& header) {
     const int fd = open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
     if (fd < 0) {
         return Error{fmt::format("cannot create the capture: {}", std::strerror(errno)), path};
     }
-    const SourceInfo& info = source->info();
-    std::string header = capture_header(info.line);
-    header += fmt::format("# recorded live from {}\n", info.name);
-    if (Status s = write_all(fd, header, path); !s) {
+    if (Status s = write_all(fd, capture_header(header), path); !s) {
         close(fd);
         return s.error();
     }

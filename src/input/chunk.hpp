@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "framing/line_settings.hpp"
@@ -33,6 +34,12 @@ struct SourceInfo {
     bool timed = false;                // chunks carry times
     bool chunk_is_frame = false;       // hex logs: each line is exactly one frame
     bool chunk_time_is_start = false;  // pcap: a chunk's time is its first byte's start
+    // What a capture's header says beyond the line (docs/formats.md), so that a capture
+    // decodes the same on any machine: the program that wrote it, its device map (slave
+    // address, profile name) and the TOML text of the profiles that are not bundled.
+    std::string written_by;
+    std::vector<std::pair<std::uint8_t, std::string>> devices;
+    std::vector<std::pair<std::string, std::string>> embedded_profiles;  // name, TOML text
 };
 
 class ChunkSource {
