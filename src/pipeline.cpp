@@ -19,6 +19,7 @@
 
 #include "decode/record_decoder.hpp"
 #include "framing/framer.hpp"
+#include "framing/line_check.hpp"
 #include "output/sinks.hpp"
 
 namespace rtuscope {
@@ -96,7 +97,12 @@ Status run_pipeline(ChunkSource& source, const PipelineOptions& options, RecordS
     framer_options.chunk_time_is_start = session.source.chunk_time_is_start;
     framer_options.rules = rules;
     framer_options.expectation = &transactions;
-    Framer framer(framer_options, [&](Frame& frame) { transactions.push(frame); });
+    // Whether the input looks like RTU at these settings: said at the end, nothing dropped.
+    LineCheck line_check(session.line);
+    Framer framer(framer_options, [&](Frame& frame) {
+        line_check.frame(frame);
+        transactions.push(frame);
+    });
 
     const auto stop_requested = [&] { return options.stop != nullptr && options.stop->load(); };
     Chunk chunk;
@@ -125,13 +131,16 @@ Status run_pipeline(ChunkSource& source, const PipelineOptions& options, RecordS
             transactions.tick(chunk.time);
             continue;
         }
+        line_check.chunk(chunk);
         framer.push(chunk);
     }
     // A live input does not end: it is stopped, and what was on the line then is cut.
     const bool stopped = options.live || stop_requested();
     framer.finish(stopped);
     transactions.finish(stopped);
-    sink.end(totals, source.remarks());
+    totals.remarks = source.remarks();
+    for (std::string& remark : line_check.remarks()) totals.remarks.push_back(std::move(remark));
+    sink.end(totals, totals.remarks);
     if (totals_out != nullptr) *totals_out = totals;
     return status;
 }

@@ -59,6 +59,9 @@ struct Totals {
     // Bytes of the frame in progress when a run was stopped (--seconds, a signal, the end
     // of a live stream): noted frame.cut_by_stop, counted here and not as an error.
     std::uint64_t cut_by_stop_bytes = 0;
+    // What the user should be told at the end: the source's remarks (skipped lines), and
+    // what looks wrong about the input (not Modbus RTU at these settings, a faster line).
+    std::vector<std::string> remarks;
 };
 
 class RecordSink {

@@ -37,9 +37,11 @@ int run_decode(const DecodeArgs& args) {
     // --pcap file too), the summary printed, then the shell's status for the signal.
     install_stop_handlers();
     decoding->options.stop = &g_stop;
-    const Status status = run_pipeline(**source, decoding->options, *decoding->sink);
+    Totals totals;
+    const Status status = run_pipeline(**source, decoding->options, *decoding->sink, &totals);
+    // The text output ends with its remarks; the other outputs have no place for them.
     if (args.output.csv || args.output.values_csv || args.output.jsonl || args.output.stats) {
-        for (const std::string& remark : (*source)->remarks()) {
+        for (const std::string& remark : totals.remarks) {
             fmt::print(stderr, "rtuscope: note: {}: {}\n", args.file, remark);
         }
     }
