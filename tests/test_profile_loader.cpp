@@ -230,8 +230,44 @@ INSTANTIATE_TEST_SUITE_P(
         BadCase{"several_mistakes_in_one_register",
                 std::string(kDevice) + "[[register]]\naddress = 1\nname = \"a b\"\n"
                                        "access = \"RO\"\nscale = 0.1\ndecimals = 1\n",
+                "test.toml:5:8: name \"a b\" must be letters, digits, _ . -\n"
                 "test.toml:6:10: access \"RO\" must be \"R\", \"W\" or \"RW\"\n"
                 "test.toml:8:12: give scale or decimals, not both\n"},
+        // A register with a mistake of its own still overlaps, and keeps its name.
+        BadCase{"overlap_of_a_register_with_another_mistake",
+                std::string(kDevice) +
+                    "[[register]]\naddress = 4\nname = \"energy\"\ntype = \"u32\"\n\n"
+                    "[[register]]\naddress = 5\nname = \"low\"\naccess = \"RO\"\n\n"
+                    "[[register]]\naddress = 9\nname = \"low\"\nunit = 1\n",
+                "test.toml:8:1: register \"low\" (0x0005) overlaps \"energy\" (0x0004, 2 "
+                "registers, line 3) in table holding\n"
+                "test.toml:11:10: access \"RO\" must be \"R\", \"W\" or \"RW\"\n"
+                "test.toml:13:1: duplicate register name \"low\" (also at line 8)\n"
+                "test.toml:16:8: unit must be a string\n"},
+        // A string covers the registers after it, not only the next one.
+        BadCase{"overlaps_past_the_next_register",
+                std::string(kDevice) +
+                    "[[register]]\naddress = 0\nname = \"model\"\ntype = \"string\"\n"
+                    "length = 8\n\n[[register]]\naddress = 2\nname = \"serial\"\n\n"
+                    "[[register]]\naddress = 5\nname = \"firmware\"\n",
+                "test.toml:9:1: register \"serial\" (0x0002) overlaps \"model\" (0x0000, 8 "
+                "registers, line 3) in table holding\n"
+                "test.toml:13:1: register \"firmware\" (0x0005) overlaps \"model\" (0x0000, 8 "
+                "registers, line 3) in table holding\n"},
+        // Whose length is unknown overlaps nothing, but its name is still checked.
+        BadCase{"unknown_type_keeps_its_name",
+                std::string(kDevice) + "[[register]]\naddress = 0\nname = \"a\"\ntype = \"u64\"\n\n"
+                                       "[[register]]\naddress = 1\nname = \"a\"\n",
+                "test.toml:6:8: unknown type \"u64\" (u16, i16, u32, i32, f32, bits, enum, "
+                "string)\n"
+                "test.toml:8:1: duplicate register name \"a\" (also at line 3)\n"},
+        // Every key of a [[function]] is checked, whatever is wrong with its code.
+        BadCase{"function_without_code",
+                std::string(kDevice) + "[[function]]\nanswer = \"never\"\n"
+                                       "table = \"eeprom\"\n\n[[register]]\ntable = \"eeprom\"\n"
+                                       "address = 1\nname = \"a\"\n",
+                "test.toml:3:1: [[function]] needs a code\n"
+                "test.toml:4:10: answer \"never\" must be \"standard\", \"echo\" or \"none\"\n"},
         BadCase{"bad_name_and_line", "[device]\nname = \"My PDU\"\nline = \"9600 9X1\"\n",
                 "test.toml:2:8: name \"My PDU\" must be lower case letters, digits and -\n"
                 "test.toml:3:8: bad line format \"9X1\" (expected data bits 5-8, parity N/E/O, "

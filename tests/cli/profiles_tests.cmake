@@ -1,0 +1,21 @@
+# `profiles check` and `profiles show` on the command line (included by tests/CMakeLists.txt,
+# which defines add_cli_test).
+
+# Every mistake of a file in one pass, in file order: a register with a mistake of its
+# own still overlaps others, and a long string overlaps more than the register after it.
+set(f tests/data/profile_several_mistakes.toml)
+set(several_mistakes "${f}:5:8: bad line format \"8X1\" [^\n]*
+${f}:13:1: register \"serial\" \\(0x0002\\) overlaps \"model\" \\(0x0000, 8 registers, line 7\\) in table holding
+${f}:16:10: access \"RO\" must be \"R\", \"W\" or \"RW\"
+${f}:18:1: register \"firmware\" \\(0x0005\\) overlaps \"model\" \\(0x0000, 8 registers, line 7\\) in table holding
+${f}:27:12: give scale or decimals, not both
+${f}:29:1: register \"bad name\" \\(0x000A\\) overlaps \"voltage\" \\(0x000A, 1 register, line 22\\) in table holding
+${f}:31:8: name \"bad name\" must be letters, digits, _ \\. -
+")
+add_cli_test(profiles_check_several_mistakes_in_one_pass RC 1 ARGS profiles check ${f}
+  STDERR_RE "^${several_mistakes}$")
+# decode --profile prints the same list, each line as an error.
+string(REPLACE "${f}:" "rtuscope: error: ${f}:" several_mistakes_as_errors "${several_mistakes}")
+add_cli_test(decode_with_profile_of_several_mistakes RC 1
+  ARGS decode captures/seeds/pdu485.hex --profile ${f}
+  STDERR_RE "^${several_mistakes_as_errors}$")
