@@ -6,6 +6,7 @@
 #include <charconv>
 
 #include "profiles/toml.hpp"
+#include "profiles/toml_errors.hpp"
 #include "util/text_file.hpp"
 
 namespace rtuscope {
@@ -149,9 +150,10 @@ Status load_bus_file(Bus& bus, const std::string& path) {
     try {
         root = toml::parse(*text, path);
     } catch (const toml::parse_error& err) {
-        return Error{std::string(err.description()), path,
-                     static_cast<int>(err.source().begin.line),
-                     static_cast<int>(err.source().begin.column)};
+        TomlSyntaxError e =
+            explain_toml_error(err.description(), static_cast<int>(err.source().begin.line),
+                               static_cast<int>(err.source().begin.column), *text);
+        return Error{std::move(e.message), path, e.line, e.column};
     }
     auto at = [&](const toml::node& node, std::string message) {
         return Error{std::move(message), path, static_cast<int>(node.source().begin.line),

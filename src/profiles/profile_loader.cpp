@@ -21,6 +21,7 @@
 #include "profiles/profile.hpp"
 #include "profiles/profile_formula.hpp"
 #include "profiles/toml.hpp"
+#include "profiles/toml_errors.hpp"
 #include "util/text_file.hpp"
 
 namespace rtuscope {
@@ -41,7 +42,10 @@ class Loader {
         try {
             root = toml::parse(text, file_);
         } catch (const toml::parse_error& err) {
-            problem(err.source(), std::string(err.description()));
+            // toml++ stops at the first syntax error: nothing after it can be checked.
+            const SourcePos pos = pos_of(err.source());
+            TomlSyntaxError e = explain_toml_error(err.description(), pos.line, pos.column, text);
+            problems_.push_back({file_, e.line, e.column, std::move(e.message)});
             return finish();
         }
         check_keys(root, {"device", "function", "register"}, "at the top level");

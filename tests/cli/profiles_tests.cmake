@@ -19,3 +19,17 @@ string(REPLACE "${f}:" "rtuscope: error: ${f}:" several_mistakes_as_errors "${se
 add_cli_test(decode_with_profile_of_several_mistakes RC 1
   ARGS decode captures/seeds/pdu485.hex --profile ${f}
   STDERR_RE "^${several_mistakes_as_errors}$")
+
+# A TOML syntax error in plain words, at the place to look, from profiles check,
+# --profile and --bus alike.
+set(f tests/data/profile_unclosed_string.toml)
+set(unclosed_string "${f}:7:8: a string is not closed: add the missing \" at the end of the value\n")
+add_cli_test(profiles_check_unclosed_string RC 1 ARGS profiles check ${f}
+  STDERR_RE "^${unclosed_string}$")
+add_cli_test(decode_with_profile_of_unclosed_string RC 1
+  ARGS decode captures/seeds/pdu485.hex --profile ${f}
+  STDERR_RE "^rtuscope: error: ${unclosed_string}$")
+set(f tests/data/bus_unclosed_header.toml)
+add_cli_test(decode_with_bus_file_of_unclosed_header RC 1
+  ARGS decode captures/seeds/pdu485.hex --bus ${f}
+  STDERR_RE "^rtuscope: error: ${f}:6:1: the table header \\[\\[device\\] is not closed: write \\[\\[device\\]\\]\n$")
