@@ -55,6 +55,17 @@ std::string scale_text(const Register& r) {
     return "";
 }
 
+// How many registers the value takes and, for 32-bit values, which comes first: what
+// turns the words read into the raw value ("2 low_first").
+std::string registers_text(const Register& r) {
+    if (is_bit_table(r.table)) return "bit";
+    const bool wide =
+        r.type == ValueType::u32 || r.type == ValueType::i32 || r.type == ValueType::f32;
+    if (!wide) return std::to_string(r.length);
+    return fmt::format("{} {}", r.length,
+                       r.word_order == WordOrder::high_first ? "high_first" : "low_first");
+}
+
 std::string range_text(const Register& r) {
     if (!r.min && !r.max) return "";
     return fmt::format("{}..{}", r.min ? number_text(*r.min) : "",
@@ -109,8 +120,11 @@ int show_profile(const BusArgs& args, const std::string& name) {
                                                              : "standard",
             answer, layout.empty() ? "" : fmt::format(", {} in table {}", layout, f.device_table));
     }
-    fmt::print("\n{:<9} {:<7} {:<24} {:<6} {:<7} {:<8} {:<6} {:<14} {}\n", "table", "address",
-               "name", "type", "scale", "unit", "access", "range", "description");
+    // Every field that changes how a raw value becomes the printed one has its column, or
+    // (labels, writes) its place in the last.
+    fmt::print("\n{:<9} {:<7} {:<24} {:<6} {:<12} {:<7} {:<8} {:<6} {:<14} {}\n", "table",
+               "address", "name", "type", "registers", "scale", "unit", "access", "range",
+               "description");
     for (const Register& r : p->registers) {
         std::string extra = r.description;
         for (const auto& [raw, label] : r.labels) {
@@ -119,9 +133,9 @@ int show_profile(const BusArgs& args, const std::string& name) {
         for (const auto& [raw, meaning] : r.writes) {
             extra += fmt::format("{}write 0x{:04X}: {}", extra.empty() ? "" : "; ", raw, meaning);
         }
-        fmt::print("{:<9} 0x{:04X}  {:<24} {:<6} {:<7} {:<8} {:<6} {:<14} {}\n", r.table, r.address,
-                   r.name, type_text(r.type), scale_text(r), r.unit, access_text(r.access),
-                   range_text(r), extra);
+        fmt::print("{:<9} 0x{:04X}  {:<24} {:<6} {:<12} {:<7} {:<8} {:<6} {:<14} {}\n", r.table,
+                   r.address, r.name, type_text(r.type), registers_text(r), scale_text(r), r.unit,
+                   access_text(r.access), range_text(r), extra);
     }
     return 0;
 }

@@ -33,3 +33,9 @@ set(f tests/data/bus_unclosed_header.toml)
 add_cli_test(decode_with_bus_file_of_unclosed_header RC 1
   ARGS decode captures/seeds/pdu485.hex --bus ${f}
   STDERR_RE "^rtuscope: error: ${f}:6:1: the table header \\[\\[device\\] is not closed: write \\[\\[device\\]\\]\n$")
+
+# profiles show prints every field that changes a value: how many registers it takes and,
+# for 32-bit values, which comes first.
+add_cli_test(profiles_show_word_order_and_length RC 0
+  ARGS profiles show show-meter --profile tests/data/profile_show.toml
+  STDOUT_RE "\ntable +address +name +type +registers +scale +unit +access +range +description\ncoil +0x0000  relay +u16 +bit +R +\nholding +0x0000  energy +u32 +2 low_first +x0.01 +kWh +R +\nholding +0x0002  power +f32 +2 high_first +W +R +\nholding +0x0004  model +string +4 +R +\n$")
