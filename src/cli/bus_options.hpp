@@ -17,10 +17,13 @@ struct BusArgs {
     std::string bus_file;
 };
 
+// --profile and --profile-dir, and with them --device and --bus.
+void add_profile_options(CLI::App& cmd, BusArgs& args);
 void add_bus_options(CLI::App& cmd, BusArgs& args);
 
-// The bundled profiles, the user's, and the bus map. Problems in profile files are all
-// printed, one per line (FILE:LINE:COL: message); the result is then an error.
+// The bundled profiles, the user's, and the bus map. Problems in profile files and the
+// bus file are all printed, one per line (FILE:LINE:COL: message); the result is then an
+// error.
 Result<std::unique_ptr<Bus>> build_bus(const BusArgs& args);
 
 // Prints every problem in a profile file, one per line, on stderr.
