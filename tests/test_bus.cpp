@@ -235,20 +235,73 @@ TEST(Bus, UsersProfileReplacesTheBundledOneOfTheSameName) {
     EXPECT_EQ(after_assign.profiles().size(), 4U);
 }
 
-TEST(Bus, BusFileErrorsNameTheLine) {
+TEST(Bus, BusFileIsAppliedWhole) {
     const test::TempDir dir;
     const std::string path =
         dir.write("bus.toml",
                   "line = \"9600 8E1\"\n\n[[device]]\naddress = 1\nprofile = \"uv-test\"\n\n"
-                  "[[device]]\naddress = 2\nprofile = \"nosuch\"\n");
+                  "[[device]]\naddress = 0x10\nprofile = \"pdu485\"\n");
     Bus bus;
     bus.add_profile(uv_like());
-    const Status status = load_bus_file(bus, path);
-    ASSERT_FALSE(status);
-    EXPECT_EQ(status.error().line, 9);
+    EXPECT_TRUE(load_bus_file(bus, path).empty());
     EXPECT_EQ(bus.profile_for(1)->name, "uv-test");
+    EXPECT_EQ(bus.profile_for(16)->name, "pdu485");
     ASSERT_TRUE(bus.line());
     EXPECT_EQ(bus.line()->format(), "8E1");
+}
+
+// Every mistake of a bus file, in file order, and nothing of the file applied.
+TEST(Bus, BusFileReportsEveryMistake) {
+    const test::TempDir dir;
+    const std::string path =
+        dir.write("bus.toml",
+                  "line = \"9600 8Q1\"\nspeed = 9600\n\n[[device]]\naddress = 1\n"
+                  "profile = \"uv-test\"\n\n[[device]]\naddress = 256\nprofile = 3\n\n"
+                  "[[device]]\naddress = 2\nprofile = \"nosuch\"\nport = 1\n\n"
+                  "[[device]]\naddress = 4\n");
+    Bus bus;
+    bus.add_profile(uv_like());
+    std::string all;
+    for (const ProfileProblem& p : load_bus_file(bus, path)) {
+        all += p.to_string().substr(dir.path().size() + 1) + "\n";
+    }
+    EXPECT_EQ(all,
+              "bus.toml:1:8: bad line format \"8Q1\" (expected data bits 5-8, parity N/E/O, stop "
+              "bits 1-2, e.g. 8N1 or 8E1)\n"
+              "bus.toml:2:1: unknown key \"speed\" (a bus file has line and [[device]])\n"
+              "bus.toml:9:11: address must be a number from 0 to 255\n"
+              "bus.toml:10:11: profile must be a string\n"
+              "bus.toml:14:11: unknown profile \"nosuch\" (known: pdu485, sensor-analyser, "
+              "uv-test, zb-uvi485, zyi-relay)\n"
+              "bus.toml:15:1: unknown key \"port\" in [[device]]\n"
+              "bus.toml:17:1: [[device]] needs address and profile\n");
+    EXPECT_EQ(bus.profile_for(1), nullptr);
+    EXPECT_FALSE(bus.line());
+}
+
+TEST(Bus, BusFileSyntaxErrorIsInPlainWords) {
+    const auto load = read_bus_text(Bus(), "[[device]\naddress = 1\n", "bus.toml");
+    EXPECT_FALSE(load.bus);
+    ASSERT_EQ(load.problems.size(), 1U);
+    EXPECT_EQ(load.problems[0].to_string(),
+              "bus.toml:1:1: the table header [[device] is not closed: write [[device]]");
+}
+
+TEST(Bus, ProfileGivenAsBusFileIsSaidSo) {
+    const auto load = read_bus_text(Bus(), "[device]\nname = \"m\"\n", "m.toml");
+    ASSERT_EQ(load.problems.size(), 1U);
+    EXPECT_EQ(load.problems[0].to_string(),
+              "m.toml: is a device profile ([device]), not a bus file: give it with --profile");
+}
+
+TEST(Bus, FileKindIsToldByContent) {
+    EXPECT_EQ(toml_file_kind("[device]\nname = \"m\"\n"), TomlFileKind::profile);
+    EXPECT_EQ(toml_file_kind("[[register]]\naddress = 1\n"), TomlFileKind::profile);
+    EXPECT_EQ(toml_file_kind("[[device]]\naddress = 1\nprofile = \"m\"\n"), TomlFileKind::bus);
+    EXPECT_EQ(toml_file_kind("line = \"9600 8N1\"\n"), TomlFileKind::bus);
+    EXPECT_EQ(toml_file_kind("[meter]\nname = \"m\"\n"), TomlFileKind::neither);
+    EXPECT_EQ(toml_file_kind(""), TomlFileKind::neither);
+    EXPECT_EQ(toml_file_kind("[[device]\n"), TomlFileKind::profile);  // the loader says why
 }
 
 }  // namespace

@@ -175,10 +175,61 @@ TEST_P(ProfileMistakes, AreReportedWithTheirPosition) {
 INSTANTIATE_TEST_SUITE_P(
     , ProfileMistakes,
     ::testing::Values(
-        BadCase{
-            "toml_syntax", "[device]\nname = \"t\nx = 1\n",
-            "test.toml:2:10: Error while parsing string: unescaped control characters other than "
-            "TAB (U+0009) are explicitly prohibited\n"},
+        // TOML syntax errors: toml++'s first one, in plain words, at the place to look.
+        BadCase{"toml_unclosed_string", "[device]\nname = \"t\nx = 1\n",
+                "test.toml:2:8: a string is not closed: add the missing \" at the end of the "
+                "value\n"},
+        BadCase{"toml_unclosed_string_with_escaped_quotes",
+                "[device]\nname = \"t\"\ntitle = \"the \\\"PDU\\\" meter\n",
+                "test.toml:3:9: a string is not closed: add the missing \" at the end of the "
+                "value\n"},
+        BadCase{"toml_unclosed_literal_string", "[device]\nname = 't\n",
+                "test.toml:2:8: a string is not closed: add the missing ' at the end of the "
+                "value\n"},
+        BadCase{"toml_unclosed_multi_line_string",
+                "[device]\nname = \"t\"\ntitle = \"\"\"A\nmeter\n",
+                "test.toml:3:9: a multi-line string is not closed: add the missing \"\"\" at its "
+                "end\n"},
+        BadCase{"toml_unclosed_header", std::string(kDevice) + "[[register]\naddress = 1\n",
+                "test.toml:3:1: the table header [[register] is not closed: write "
+                "[[register]]\n"},
+        BadCase{"toml_missing_equals", "[device]\nname \"t\"\n",
+                "test.toml:2:6: a key is not followed by =: write key = value\n"},
+        BadCase{"toml_key_with_a_space", "[device]\nmax registers = 10\n",
+                "test.toml:2:5: a key has a space in it, or no = after it: write key = value, and "
+                "a key of several words in \"quotes\"\n"},
+        BadCase{"toml_missing_value", "[device]\nname =\n",
+                "test.toml:2:7: a key has no value after its =: write key = value\n"},
+        BadCase{"toml_duplicate_key",
+                std::string(kDevice) + "[[register]]\naddress = 1\nname = \"a\"\naddress = 2\n",
+                "test.toml:6:1: the key \"address\" is given twice in one table (also at line 4): "
+                "keep one\n"},
+        BadCase{"toml_duplicate_table", std::string(kDevice) + "[device]\ntitle = \"x\"\n",
+                "test.toml:3:1: the table [device] is given twice: put its keys under one "
+                "[device]\n"},
+        BadCase{"toml_bad_number", std::string(kDevice) + "[[register]]\naddress = 0x12G\n",
+                "test.toml:4:15: a number has the character 'G' in it: write numbers like 42, "
+                "0x2A or 0.5, and text in \"quotes\"\n"},
+        BadCase{"toml_leading_zero", std::string(kDevice) + "[[register]]\naddress = 012\n",
+                "test.toml:4:14: a number may not start with 0: write 12, or 0x12 for hex\n"},
+        BadCase{"toml_bad_escape", "[device]\nname = \"t\"\nsource = \"C:\\manuals\"\n",
+                "test.toml:3:14: a string has the unknown escape \\m: write \\\\ for a "
+                "backslash, or put the text in 'single quotes', which keep backslashes as they "
+                "are\n"},
+        BadCase{"toml_unquoted_text", "[device]\nname = pdu\n",
+                "test.toml:2:8: a value is not a number, true, false, an [array], a { table } "
+                "or a \"string\": put text in quotes\n"},
+        BadCase{"toml_array_without_comma", "[device]\nname = \"t\"\naddresses = [1 2]\n",
+                "test.toml:3:16: an array needs a comma between its values and a ] at its end\n"},
+        BadCase{"toml_inline_table_over_two_lines",
+                std::string(kDevice) + "[[register]]\naddress = 1\nname = \"a\"\ntype = \"enum\"\n"
+                                       "values = { \"0\" = \"off\",\n  \"1\" = \"on\" }\n",
+                "test.toml:7:24: an inline table { ... } must end on the line where it starts: "
+                "add the missing }\n"},
+        // A mistake without plain words of its own keeps toml++'s.
+        BadCase{"toml_other", "[device]\nname = \"t\"\naddress = 1__0\n",
+                "test.toml:3:13: not valid TOML: error while parsing decimal integer: "
+                "underscores may only follow digits\n"},
         BadCase{"unknown_type",
                 std::string(kDevice) + "[[register]]\naddress = 1\nname = \"a\"\n"
                                        "type = \"u24\"\n",
@@ -230,8 +281,44 @@ INSTANTIATE_TEST_SUITE_P(
         BadCase{"several_mistakes_in_one_register",
                 std::string(kDevice) + "[[register]]\naddress = 1\nname = \"a b\"\n"
                                        "access = \"RO\"\nscale = 0.1\ndecimals = 1\n",
+                "test.toml:5:8: name \"a b\" must be letters, digits, _ . -\n"
                 "test.toml:6:10: access \"RO\" must be \"R\", \"W\" or \"RW\"\n"
                 "test.toml:8:12: give scale or decimals, not both\n"},
+        // A register with a mistake of its own still overlaps, and keeps its name.
+        BadCase{"overlap_of_a_register_with_another_mistake",
+                std::string(kDevice) +
+                    "[[register]]\naddress = 4\nname = \"energy\"\ntype = \"u32\"\n\n"
+                    "[[register]]\naddress = 5\nname = \"low\"\naccess = \"RO\"\n\n"
+                    "[[register]]\naddress = 9\nname = \"low\"\nunit = 1\n",
+                "test.toml:8:1: register \"low\" (0x0005) overlaps \"energy\" (0x0004, 2 "
+                "registers, line 3) in table holding\n"
+                "test.toml:11:10: access \"RO\" must be \"R\", \"W\" or \"RW\"\n"
+                "test.toml:13:1: duplicate register name \"low\" (also at line 8)\n"
+                "test.toml:16:8: unit must be a string\n"},
+        // A string covers the registers after it, not only the next one.
+        BadCase{"overlaps_past_the_next_register",
+                std::string(kDevice) +
+                    "[[register]]\naddress = 0\nname = \"model\"\ntype = \"string\"\n"
+                    "length = 8\n\n[[register]]\naddress = 2\nname = \"serial\"\n\n"
+                    "[[register]]\naddress = 5\nname = \"firmware\"\n",
+                "test.toml:9:1: register \"serial\" (0x0002) overlaps \"model\" (0x0000, 8 "
+                "registers, line 3) in table holding\n"
+                "test.toml:13:1: register \"firmware\" (0x0005) overlaps \"model\" (0x0000, 8 "
+                "registers, line 3) in table holding\n"},
+        // Whose length is unknown overlaps nothing, but its name is still checked.
+        BadCase{"unknown_type_keeps_its_name",
+                std::string(kDevice) + "[[register]]\naddress = 0\nname = \"a\"\ntype = \"u64\"\n\n"
+                                       "[[register]]\naddress = 1\nname = \"a\"\n",
+                "test.toml:6:8: unknown type \"u64\" (u16, i16, u32, i32, f32, bits, enum, "
+                "string)\n"
+                "test.toml:8:1: duplicate register name \"a\" (also at line 3)\n"},
+        // Every key of a [[function]] is checked, whatever is wrong with its code.
+        BadCase{"function_without_code",
+                std::string(kDevice) + "[[function]]\nanswer = \"never\"\n"
+                                       "table = \"eeprom\"\n\n[[register]]\ntable = \"eeprom\"\n"
+                                       "address = 1\nname = \"a\"\n",
+                "test.toml:3:1: [[function]] needs a code\n"
+                "test.toml:4:10: answer \"never\" must be \"standard\", \"echo\" or \"none\"\n"},
         BadCase{"bad_name_and_line", "[device]\nname = \"My PDU\"\nline = \"9600 9X1\"\n",
                 "test.toml:2:8: name \"My PDU\" must be lower case letters, digits and -\n"
                 "test.toml:3:8: bad line format \"9X1\" (expected data bits 5-8, parity N/E/O, "

@@ -7,12 +7,16 @@
 
 namespace rtuscope::cli {
 
-void add_bus_options(CLI::App& cmd, BusArgs& args) {
+void add_profile_options(CLI::App& cmd, BusArgs& args) {
     cmd.add_option("--profile", args.profile_files,
                    "A device profile file (TOML, docs/profiles.md); repeatable")
         ->type_name("FILE");
     cmd.add_option("--profile-dir", args.profile_dir, "Load every *.toml profile in DIR")
         ->type_name("DIR");
+}
+
+void add_bus_options(CLI::App& cmd, BusArgs& args) {
+    add_profile_options(cmd, args);
     cmd.add_option("--device", args.devices,
                    "Which slave is which device: ADDRESS=PROFILE, e.g. 3=pdu485; repeatable")
         ->type_name("ADDR=PROFILE");
@@ -56,7 +60,10 @@ Result<std::unique_ptr<Bus>> build_bus(const BusArgs& args) {
     // Each mistake has had its own line; an empty message says there is nothing to add.
     if (failed) return Error{""};
     if (!args.bus_file.empty()) {
-        if (Status s = load_bus_file(*bus, args.bus_file); !s) return s.error();
+        if (auto problems = load_bus_file(*bus, args.bus_file); !problems.empty()) {
+            print_problems(problems);
+            return Error{""};
+        }
     }
     return bus;
 }

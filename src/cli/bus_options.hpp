@@ -17,11 +17,13 @@ struct BusArgs {
     std::string bus_file;
 };
 
+// --profile and --profile-dir, and with them --device and --bus.
+void add_profile_options(CLI::App& cmd, BusArgs& args);
 void add_bus_options(CLI::App& cmd, BusArgs& args);
 
-// The bundled profiles, the user's, and the bus file's map. Problems in profile files are
-// all printed, one per line (FILE:LINE:COL: message); the result is then an error. A file
-// that cannot be read or holds mistakes is exit status 1.
+// The bundled profiles, the user's, and the bus file's map. Problems in profile files and
+// the bus file are all printed, one per line (FILE:LINE:COL: message); the result is then
+// an error. A file that cannot be read or holds mistakes is exit status 1.
 Result<std::unique_ptr<Bus>> build_bus(const BusArgs& args);
 // The --device options on top of it. A malformed one or an unknown profile name is a bad
 // option: exit status 2.

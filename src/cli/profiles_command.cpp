@@ -7,6 +7,7 @@
 #include "bus_options.hpp"
 #include "decode/pdu_decoders.hpp"
 #include "errors.hpp"
+#include "util/text_file.hpp"
 
 namespace rtuscope::cli {
 namespace {
@@ -53,6 +54,17 @@ std::string scale_text(const Register& r) {
     if (r.decimals >= 0) return fmt::format("/10^{}", r.decimals);
     if (r.scale != 1.0) return fmt::format("x{}", number_text(r.scale));
     return "";
+}
+
+// How many registers the value takes and, for 32-bit values, which comes first: what
+// turns the words read into the raw value ("2 low_first").
+std::string registers_text(const Register& r) {
+    if (is_bit_table(r.table)) return "bit";
+    const bool wide =
+        r.type == ValueType::u32 || r.type == ValueType::i32 || r.type == ValueType::f32;
+    if (!wide) return std::to_string(r.length);
+    return fmt::format("{} {}", r.length,
+                       r.word_order == WordOrder::high_first ? "high_first" : "low_first");
 }
 
 std::string range_text(const Register& r) {
@@ -117,8 +129,11 @@ int show_profile(const BusArgs& args, const std::string& name) {
                                                              : "standard",
             answer, layout.empty() ? "" : fmt::format(", {} in table {}", layout, f.device_table));
     }
-    fmt::print("\n{:<9} {:<7} {:<24} {:<6} {:<7} {:<8} {:<6} {:<14} {}\n", "table", "address",
-               "name", "type", "scale", "unit", "access", "range", "description");
+    // Every field that changes how a raw value becomes the printed one has its column, or
+    // (labels, writes) its place in the last.
+    fmt::print("\n{:<9} {:<7} {:<24} {:<6} {:<12} {:<7} {:<8} {:<6} {:<14} {}\n", "table",
+               "address", "name", "type", "registers", "scale", "unit", "access", "range",
+               "description");
     for (const Register& r : p->registers) {
         std::string extra = r.description;
         for (const auto& [raw, label] : r.labels) {
@@ -127,28 +142,88 @@ int show_profile(const BusArgs& args, const std::string& name) {
         for (const auto& [raw, meaning] : r.writes) {
             extra += fmt::format("{}write 0x{:04X}: {}", extra.empty() ? "" : "; ", raw, meaning);
         }
-        fmt::print("{:<9} 0x{:04X}  {:<24} {:<6} {:<7} {:<8} {:<6} {:<14} {}\n", r.table, r.address,
-                   r.name, type_text(r.type), scale_text(r), r.unit, access_text(r.access),
-                   range_text(r), extra);
+        fmt::print("{:<9} 0x{:04X}  {:<24} {:<6} {:<12} {:<7} {:<8} {:<6} {:<14} {}\n", r.table,
+                   r.address, r.name, type_text(r.type), registers_text(r), scale_text(r), r.unit,
+                   access_text(r.access), range_text(r), extra);
     }
     return 0;
 }
 
-int check_profiles(const std::vector<std::string>& files) {
-    int status = 0;
-    for (const std::string& file : files) {
-        ProfileLoad load = load_profile_file(file);
-        if (!load.problems.empty() || !load.profile) {
-            // Like a compiler's diagnostics: on stderr, one per line, so that editors and
-            // CI logs can jump to FILE:LINE:COL.
-            for (const ProfileProblem& problem : load.problems) {
-                fmt::print(stderr, "{}\n", problem.to_string());
-            }
-            status = 1;
+// One file given to `profiles check`: what it is and, for a profile, what loading it
+// gave (or why the file could not be read).
+struct CheckedFile {
+    std::string path;
+    TomlFileKind kind = TomlFileKind::profile;
+    std::string text;     // a bus file's, read again once every profile is known
+    ProfileLoad profile;  // a profile's load, or the reason the file could not be read
+};
+
+// Like a compiler's diagnostics: on stderr, one per line, so that editors and CI logs can
+// jump to FILE:LINE:COL.
+void print_check_problems(const std::vector<ProfileProblem>& problems) {
+    for (const ProfileProblem& problem : problems) fmt::print(stderr, "{}\n", problem.to_string());
+}
+
+int check_files(const BusArgs& args, const std::vector<std::string>& files) {
+    auto bus = build_bus(args);  // --profile and --profile-dir, for the bus files' names
+    if (!bus) {
+        print_error(bus.error());
+        return 1;
+    }
+    // Profiles first: a bus file may name one checked with it, wherever it stands on the
+    // command line.
+    std::vector<CheckedFile> checked;
+    for (const std::string& path : files) {
+        CheckedFile& file = checked.emplace_back();
+        file.path = path;
+        auto text = read_text_file(path);
+        if (!text) {
+            file.profile.problems.push_back({path, 0, 0, text.error().message});
             continue;
         }
-        fmt::print("{}: ok, profile \"{}\" with {} registers\n", file, load.profile->name,
-                   load.profile->registers.size());
+        file.kind = toml_file_kind(*text);
+        if (file.kind == TomlFileKind::profile) {
+            file.profile = load_profile_text(*text, path);
+            if (file.profile.profile) (*bus)->add_profile(*file.profile.profile);
+        } else {
+            file.text = std::move(*text);
+        }
+    }
+    int status = 0;
+    for (const CheckedFile& file : checked) {
+        switch (file.kind) {
+            case TomlFileKind::profile:
+                if (!file.profile.profile) {
+                    print_check_problems(file.profile.problems);
+                    status = 1;
+                    break;
+                }
+                fmt::print("{}: ok, profile \"{}\" with {} registers\n", file.path,
+                           file.profile.profile->name, file.profile.profile->registers.size());
+                break;
+            case TomlFileKind::bus: {
+                const BusLoad load = read_bus_text(**bus, file.text, file.path);
+                if (!load.bus) {
+                    print_check_problems(load.problems);
+                    status = 1;
+                    break;
+                }
+                const std::size_t devices = load.bus->devices.size();
+                fmt::print("{}: ok, bus file with {} device{}{}\n", file.path, devices,
+                           devices == 1 ? "" : "s",
+                           load.bus->line ? fmt::format(" (line {} {})", load.bus->line->baud,
+                                                        load.bus->line->format())
+                                          : std::string());
+                break;
+            }
+            case TomlFileKind::neither:
+                fmt::print(stderr,
+                           "{}: neither a device profile ([device]) nor a bus file ([[device]] "
+                           "entries or line): nothing to check\n",
+                           file.path);
+                status = 1;
+                break;
+        }
     }
     return status;
 }
@@ -171,11 +246,15 @@ void add_profiles_command(CLI::App& app, int& exit_code) {
     add_bus_options(*show, *show_args);
     show->callback([show_args, name, &exit_code] { exit_code = show_profile(*show_args, *name); });
 
+    auto check_args = std::make_shared<BusArgs>();
     auto files = std::make_shared<std::vector<std::string>>();
     CLI::App* check = cmd->add_subcommand(
-        "check", "Validate profile files: every mistake as FILE:LINE:COL: message");
-    check->add_option("FILE", *files, "Profile files")->required();
-    check->callback([files, &exit_code] { exit_code = check_profiles(*files); });
+        "check", "Validate profile and bus files: every mistake as FILE:LINE:COL: message");
+    check->add_option("FILE", *files, "Profile or bus files (told apart by their content)")
+        ->required();
+    add_profile_options(*check, *check_args);
+    check->callback(
+        [check_args, files, &exit_code] { exit_code = check_files(*check_args, *files); });
 }
 
 }  // namespace rtuscope::cli

@@ -4,11 +4,22 @@
 
 #include <algorithm>
 #include <charconv>
+#include <tuple>
 
 #include "profiles/toml.hpp"
+#include "profiles/toml_errors.hpp"
 #include "util/text_file.hpp"
 
 namespace rtuscope {
+namespace {
+
+std::string unknown_profile(const Bus& bus, std::string_view name) {
+    std::string known;
+    for (const Profile* p : bus.profiles()) known += (known.empty() ? "" : ", ") + p->name;
+    return fmt::format("unknown profile \"{}\" (known: {})", name, known);
+}
+
+}  // namespace
 
 std::deque<Profile>& Bus::known() const {
     if (!bundled_added_) {
@@ -47,11 +58,7 @@ std::vector<const Profile*> Bus::profiles() const {
 
 Status Bus::assign(std::uint8_t address, std::string_view profile_name) {
     const Profile* profile = find_profile(profile_name);
-    if (profile == nullptr) {
-        std::string known;
-        for (const Profile* p : profiles()) known += (known.empty() ? "" : ", ") + p->name;
-        return Error{fmt::format("unknown profile \"{}\" (known: {})", profile_name, known)};
-    }
+    if (profile == nullptr) return Error{unknown_profile(*this, profile_name)};
     by_address_[address] = profile;
     update_owners();
     return ok_status();
@@ -142,62 +149,166 @@ Status assign_device_option(Bus& bus, std::string_view option) {
     return bus.assign(static_cast<std::uint8_t>(*address), option.substr(eq + 1));
 }
 
-Status load_bus_file(Bus& bus, const std::string& path) {
-    auto text = read_text_file(path);
-    if (!text) return text.error();
-    toml::table root;
-    try {
-        root = toml::parse(*text, path);
-    } catch (const toml::parse_error& err) {
-        return Error{std::string(err.description()), path,
-                     static_cast<int>(err.source().begin.line),
-                     static_cast<int>(err.source().begin.column)};
-    }
-    auto at = [&](const toml::node& node, std::string message) {
-        return Error{std::move(message), path, static_cast<int>(node.source().begin.line),
-                     static_cast<int>(node.source().begin.column)};
-    };
-    for (const auto& [key, node] : root) {
-        if (key != "line" && key != "device") {
-            return at(node, fmt::format("unknown key \"{}\" (a bus file has line and [[device]])",
+namespace {
+
+TomlFileKind kind_of(const toml::table& root) {
+    const toml::node* device = root.get("device");
+    if (device != nullptr && device->is_table()) return TomlFileKind::profile;
+    if (device != nullptr && device->is_array()) return TomlFileKind::bus;
+    if (root.contains("register") || root.contains("function")) return TomlFileKind::profile;
+    if (root.contains("line")) return TomlFileKind::bus;
+    return TomlFileKind::neither;
+}
+
+// Reads a bus file's table, collecting every mistake rather than stopping at the first.
+class BusReader {
+  public:
+    BusReader(const Bus& known, std::string file) : known_(known), file_(std::move(file)) {}
+
+    BusLoad read(const std::string& text) {
+        toml::table root;
+        try {
+            root = toml::parse(text, file_);
+        } catch (const toml::parse_error& err) {
+            TomlSyntaxError e =
+                explain_toml_error(err.description(), static_cast<int>(err.source().begin.line),
+                                   static_cast<int>(err.source().begin.column), text);
+            problems_.push_back({file_, e.line, e.column, std::move(e.message)});
+            return finish();
+        }
+        if (kind_of(root) == TomlFileKind::profile) {
+            // Its keys would each be a mistake here; one line says what is.
+            problems_.push_back({file_, 0, 0,
+                                 "is a device profile ([device]), not a bus file: give it with "
+                                 "--profile"});
+            return finish();
+        }
+        for (const auto& [key, node] : root) {
+            if (key != "line" && key != "device") {
+                unknown_key(key, node,
+                            fmt::format("unknown key \"{}\" (a bus file has line and [[device]])",
                                         key.str()));
+            }
+        }
+        if (const toml::node* line = root.get("line")) read_line(*line);
+        if (const toml::node* devices = root.get("device")) {
+            if (const toml::array* list = devices->as_array()) {
+                for (const toml::node& entry : *list) read_device(entry);
+            } else {
+                problem(*devices, "device must be an array of tables: [[device]]");
+            }
+        }
+        return finish();
+    }
+
+  private:
+    const Bus& known_;
+    std::string file_;
+    BusFile bus_;
+    std::vector<ProfileProblem> problems_;
+
+    void problem(const toml::source_region& where, std::string message) {
+        problems_.push_back({file_, static_cast<int>(where.begin.line),
+                             static_cast<int>(where.begin.column), std::move(message)});
+    }
+    void problem(const toml::node& node, std::string message) {
+        problem(node.source(), std::move(message));
+    }
+    // An unknown key is reported where the key stands.
+    void unknown_key(const toml::key& key, const toml::node& node, std::string message) {
+        problem(key.source().begin.line != 0 ? key.source() : node.source(), std::move(message));
+    }
+
+    BusLoad finish() {
+        std::stable_sort(problems_.begin(), problems_.end(),
+                         [](const ProfileProblem& a, const ProfileProblem& b) {
+                             return std::tie(a.line, a.column) < std::tie(b.line, b.column);
+                         });
+        BusLoad load;
+        if (problems_.empty()) load.bus = std::move(bus_);
+        load.problems = std::move(problems_);
+        return load;
+    }
+
+    void read_line(const toml::node& line) {
+        const auto text = line.value<std::string>();
+        if (!text) {
+            problem(line, "line must be a string like \"9600 8N1\"");
+            return;
+        }
+        auto settings = parse_line_settings(*text);
+        if (settings) {
+            bus_.line = *settings;
+        } else {
+            problem(line, settings.error().message);
         }
     }
-    if (const toml::node* line = root.get("line")) {
-        const auto line_text = line->value<std::string>();
-        if (!line_text) return at(*line, "line must be a string like \"9600 8N1\"");
-        auto settings = parse_line_settings(*line_text);
-        if (!settings) return at(*line, settings.error().message);
-        bus.set_line(*settings);
-    }
-    const toml::node* devices = root.get("device");
-    if (devices == nullptr) return ok_status();
-    const toml::array* list = devices->as_array();
-    if (list == nullptr) return at(*devices, "device must be an array of tables: [[device]]");
-    for (const toml::node& entry : *list) {
+
+    void read_device(const toml::node& entry) {
         const toml::table* device = entry.as_table();
-        if (device == nullptr) return at(entry, "each [[device]] must be a table");
+        if (device == nullptr) {
+            problem(entry, "each [[device]] must be a table");
+            return;
+        }
         for (const auto& [key, node] : *device) {
             if (key != "address" && key != "profile") {
-                return at(node, fmt::format("unknown key \"{}\" in [[device]]", key.str()));
+                unknown_key(key, node, fmt::format("unknown key \"{}\" in [[device]]", key.str()));
             }
         }
         const toml::node* address = device->get("address");
         const toml::node* profile = device->get("profile");
         if (address == nullptr || profile == nullptr) {
-            return at(entry, "[[device]] needs address and profile");
+            problem(entry, "[[device]] needs address and profile");
         }
-        const auto number = address->value<std::int64_t>();
-        if (!number || *number < 0 || *number > 255) {
-            return at(*address, "address must be a number from 0 to 255");
+        std::optional<std::int64_t> number;
+        if (address != nullptr) {
+            number = address->value<std::int64_t>();
+            if (!number || *number < 0 || *number > 255) {
+                problem(*address, "address must be a number from 0 to 255");
+                number.reset();
+            }
         }
-        const auto name = profile->value<std::string>();
-        if (!name) return at(*profile, "profile must be a string");
-        if (Status s = bus.assign(static_cast<std::uint8_t>(*number), *name); !s) {
-            return at(*profile, s.error().message);
+        std::optional<std::string> name;
+        if (profile != nullptr) {
+            name = profile->value<std::string>();
+            if (!name) {
+                problem(*profile, "profile must be a string");
+            } else if (known_.find_profile(*name) == nullptr) {
+                problem(*profile, unknown_profile(known_, *name));
+                name.reset();
+            }
+        }
+        if (number && name) {
+            bus_.devices.push_back({static_cast<std::uint8_t>(*number), std::move(*name)});
         }
     }
-    return ok_status();
+};
+
+}  // namespace
+
+BusLoad read_bus_text(const Bus& known, const std::string& text, const std::string& file_name) {
+    return BusReader(known, file_name).read(text);
+}
+
+std::vector<ProfileProblem> load_bus_file(Bus& bus, const std::string& path) {
+    auto text = read_text_file(path);
+    if (!text) return {{path, 0, 0, text.error().message}};
+    BusLoad load = read_bus_text(bus, *text, path);
+    if (!load.bus) return std::move(load.problems);
+    if (load.bus->line) bus.set_line(*load.bus->line);
+    for (const BusDevice& device : load.bus->devices) {
+        // Every name was checked against this bus: assigning cannot fail.
+        (void)bus.assign(device.address, device.profile);
+    }
+    return {};
+}
+
+TomlFileKind toml_file_kind(const std::string& text) {
+    try {
+        return kind_of(toml::parse(text));
+    } catch (const toml::parse_error&) {
+        return TomlFileKind::profile;
+    }
 }
 
 const FunctionSpec& BusRules::function(std::uint8_t slave, std::uint8_t code) const {

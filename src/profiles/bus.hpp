@@ -63,8 +63,33 @@ class Bus {
 
 // "3=pdu485" (address 0-255, decimal or 0x hex).
 Status assign_device_option(Bus& bus, std::string_view option);
+
 // A bus file (TOML, docs/profiles.md): optional `line`, and [[device]] address + profile.
-Status load_bus_file(Bus& bus, const std::string& path);
+struct BusDevice {
+    std::uint8_t address = 0;
+    std::string profile;
+};
+struct BusFile {
+    std::optional<LineSettings> line;
+    std::vector<BusDevice> devices;  // in file order
+};
+// Reads and checks one bus file, every mistake with its position (like a profile's,
+// sorted by position): unknown keys, bad line settings, addresses and profile names the
+// bus does not know. The file only when there is no mistake.
+struct BusLoad {
+    std::optional<BusFile> bus;
+    std::vector<ProfileProblem> problems;
+};
+BusLoad read_bus_text(const Bus& known, const std::string& text, const std::string& file_name);
+// Reads a bus file into `bus` (its line settings and devices) and returns nothing; or,
+// when the file has mistakes, returns them all and leaves `bus` as it was.
+std::vector<ProfileProblem> load_bus_file(Bus& bus, const std::string& path);
+
+// What a TOML file is, by its content: a device profile has a [device] table (or
+// [[register]]s, [[function]]s), a bus file [[device]] entries or a top-level `line`.
+// A text that is not valid TOML counts as a profile, whose loader says what is wrong.
+enum class TomlFileKind : std::uint8_t { profile, bus, neither };
+TomlFileKind toml_file_kind(const std::string& text);
 
 // The standard rules, overridden per slave address by that slave's profile.
 class BusRules final : public ProtocolRules {

@@ -21,6 +21,7 @@
 #include "profiles/profile.hpp"
 #include "profiles/profile_formula.hpp"
 #include "profiles/toml.hpp"
+#include "profiles/toml_errors.hpp"
 #include "util/text_file.hpp"
 
 namespace rtuscope {
@@ -41,7 +42,10 @@ class Loader {
         try {
             root = toml::parse(text, file_);
         } catch (const toml::parse_error& err) {
-            problem(err.source(), std::string(err.description()));
+            // toml++ stops at the first syntax error: nothing after it can be checked.
+            const SourcePos pos = pos_of(err.source());
+            TomlSyntaxError e = explain_toml_error(err.description(), pos.line, pos.column, text);
+            problems_.push_back({file_, e.line, e.column, std::move(e.message)});
             return finish();
         }
         check_keys(root, {"device", "function", "register"}, "at the top level");
@@ -64,6 +68,11 @@ class Loader {
     std::string file_;
     Profile profile_;
     std::vector<ProfileProblem> problems_;
+    // The tables the [[function]]s name, for the registers' `table`.
+    std::set<std::string, std::less<>> function_tables_;
+    // Registers whose length is unknown (a mistyped type, a string without a length):
+    // checked for duplicate names, but not for overlaps, which their length would decide.
+    std::vector<Register> unsized_;
 
     ProfileLoad finish() {
         std::stable_sort(problems_.begin(), problems_.end(),
@@ -229,19 +238,17 @@ class Loader {
     }
 
     // A [[function]]: the standard entry of its code with what the file says instead. Its
-    // data is the profile's (its layout, of its table), not the standard's.
+    // data is the profile's (its layout, of its table), not the standard's. Every key is
+    // checked even when the code is missing or repeated, so that one pass finds them all.
     void read_function(const toml::table& t) {
         check_keys(t, {"code", "name", "request_length", "answer", "layout", "table"},
                    "in [[function]]");
         const auto code = get_integer(t, "code", 1, 127);
-        if (!code) {
-            if (t.get("code") == nullptr) problem(t, "[[function]] needs a code");
-            return;
-        }
-        FunctionSpec f = own_function(static_cast<std::uint8_t>(*code));
-        if (profile_.function(f.code) != nullptr) {
+        if (!code && t.get("code") == nullptr) problem(t, "[[function]] needs a code");
+        FunctionSpec f = own_function(static_cast<std::uint8_t>(code.value_or(0)));
+        const bool repeated = code && profile_.function(f.code) != nullptr;
+        if (repeated) {
             problem(*t.get("code"), fmt::format("function 0x{:02X} is defined twice", f.code));
-            return;
         }
         if (auto name = get_string(t, "name")) f.name = *name;
         const auto request_length = get_integer(t, "request_length", 4, 256);
@@ -272,8 +279,13 @@ class Loader {
                         fmt::format("layout \"{}\" must be \"address_value\"", *layout));
             }
         }
-        if (auto table = get_string(t, "table")) f.device_table = *table;
-        profile_.functions.push_back(std::move(f));
+        if (auto table = get_string(t, "table")) {
+            f.device_table = *table;
+            // Known to the registers below even when this function has a mistake: an
+            // "unknown table" for each of them would only repeat it.
+            function_tables_.insert(*table);
+        }
+        if (code && !repeated) profile_.functions.push_back(std::move(f));
     }
 
     static std::optional<ValueType> type_named(std::string_view name) {
@@ -345,7 +357,11 @@ class Loader {
             "description", "values",  "bits",     "writes"};
         Register r;
         r.pos = pos_of(t.source());
-        const std::size_t problems_before = problems_.size();
+        // A register with a mistake still takes its place in the checks of the whole
+        // profile (overlaps, duplicate names) as far as what it says can be read: the
+        // user sees every mistake at once, not one more after each fix.
+        bool sized = true;       // its length is known
+        bool formula_ok = true;  // its formula and the variables' ranges can be read
 
         // A formula's variables are extra keys; anything else unknown is a mistake.
         std::optional<Formula> formula;
@@ -366,6 +382,8 @@ class Loader {
             if (formula && formula->uses(key.str())) {
                 if (auto range = get_int_pair(node, key.str(), -1'000'000, 1'000'000)) {
                     variables.push_back({std::string(key.str()), range->first, range->second});
+                } else {
+                    formula_ok = false;
                 }
                 continue;
             }
@@ -375,10 +393,7 @@ class Loader {
         }
 
         if (auto table = get_string(t, "table")) {
-            const bool custom =
-                std::any_of(profile_.functions.begin(), profile_.functions.end(),
-                            [&](const FunctionSpec& f) { return f.device_table == *table; });
-            if (kStandardTables.count(*table) == 0 && !custom) {
+            if (kStandardTables.count(*table) == 0 && function_tables_.count(*table) == 0) {
                 problem(*t.get("table"),
                         fmt::format("unknown table \"{}\" (holding, input, coil, discrete, or the "
                                     "table of a [[function]] defined above)",
@@ -388,7 +403,8 @@ class Loader {
         }
 
         const toml::node* name_node = t.get("name");
-        if (auto name = get_string(t, "name")) {
+        const auto name = get_string(t, "name");
+        if (name) {
             r.name = *name;
         } else if (name_node == nullptr) {
             problem(t, "[[register]] needs a name");
@@ -401,7 +417,10 @@ class Loader {
                 problem(*t.get("type"), fmt::format("unknown type \"{}\" (u16, i16, u32, i32, "
                                                     "f32, bits, enum, string)",
                                                     *type));
+                sized = false;
             }
+        } else if (t.get("type") != nullptr) {
+            sized = false;
         }
         if (is_32bit(r.type)) r.length = 2;
         if (auto order = get_string(t, "word_order")) {
@@ -421,8 +440,11 @@ class Loader {
             } else {
                 r.length = static_cast<std::uint16_t>(*length);
             }
-        } else if (r.type == ValueType::string && t.get("length") == nullptr) {
-            problem(t, fmt::format("string register \"{}\" needs a length", r.name));
+        } else if (r.type == ValueType::string) {
+            if (t.get("length") == nullptr) {
+                problem(t, fmt::format("string register \"{}\" needs a length", r.name));
+            }
+            sized = false;
         }
         if (is_bit_table(r.table)) {
             if (r.type != ValueType::u16 && r.type != ValueType::enumeration) {
@@ -502,30 +524,33 @@ class Loader {
             problem(*address, "give address or formula, not both");
             return;
         }
-        if (problems_.size() != problems_before) return;  // expansion would only add noise
-
         if (address != nullptr) {
+            if (name && !good_name(r.name)) {
+                problem(*name_node,
+                        fmt::format("name \"{}\" must be letters, digits, _ . -", r.name));
+            }
             if (auto a = get_integer(t, "address", 0, 65535)) {
                 r.address = static_cast<std::uint16_t>(*a);
-                if (!good_name(r.name)) {
-                    problem(name_node != nullptr ? name_node->source() : t.source(),
-                            fmt::format("name \"{}\" must be letters, digits, _ . -", r.name));
-                    return;
-                }
-                profile_.registers.push_back(std::move(r));
+                add(std::move(r), sized);
             }
             return;
         }
-        if (!formula) {
+        if (t.get("formula") == nullptr) {
             problem(t, fmt::format("register \"{}\" needs an address or a formula", r.name));
             return;
         }
-        expand_formula(*formula, variables, r, t);
+        // A formula that cannot be read was reported; a name that is not there cannot be
+        // expanded.
+        if (formula && formula_ok && name) expand_formula(*formula, variables, r, sized, t);
+    }
+
+    void add(Register r, bool sized) {
+        (sized ? profile_.registers : unsized_).push_back(std::move(r));
     }
 
     // One register per combination of the variables' values.
     void expand_formula(const Formula& formula, const std::vector<FormulaVariable>& variables,
-                        const Register& pattern, const toml::table& t) {
+                        const Register& pattern, bool sized, const toml::table& t) {
         const toml::node& formula_node = *t.get("formula");
         const std::size_t problems_before = problems_.size();
         for (const std::string& used : formula.variables()) {
@@ -589,7 +614,7 @@ class Loader {
             Register r = pattern;
             r.address = static_cast<std::uint16_t>(*value);
             r.name = std::move(name);
-            profile_.registers.push_back(std::move(r));
+            add(std::move(r), sized);
             // Next combination: the last variable counts fastest.
             for (auto v = variables.rbegin(); v != variables.rend(); ++v) {
                 if (++env[v->name] <= v->last) break;
@@ -603,21 +628,26 @@ class Loader {
         std::stable_sort(regs.begin(), regs.end(), [](const Register& a, const Register& b) {
             return std::tie(a.table, a.address) < std::tie(b.table, b.address);
         });
-        for (std::size_t i = 0; i < regs.size(); ++i) {
-            const Register& r = regs[i];
-            if (static_cast<unsigned>(r.address) + r.length - 1 > 65535) {
+        auto end_address = [](const Register& r) {
+            return static_cast<unsigned>(r.address) + r.length;
+        };
+        // Of the registers before this one in its table, the one that reaches furthest: a
+        // register overlaps an earlier one exactly when it starts before that one's end
+        // (a long string may cover several registers after it, not only the next).
+        const Register* reach = nullptr;
+        for (const Register& r : regs) {
+            if (reach != nullptr && reach->table != r.table) reach = nullptr;
+            if (end_address(r) - 1 > 65535) {
                 problem(r.pos, fmt::format("register \"{}\" at 0x{:04X} takes {} registers and "
                                            "runs past address 0xFFFF",
                                            r.name, r.address, r.length));
             }
-            if (i > 0 && regs[i - 1].table == r.table &&
-                static_cast<unsigned>(regs[i - 1].address) + regs[i - 1].length > r.address) {
-                const Register& earlier = regs[i - 1];
+            if (reach != nullptr && end_address(*reach) > r.address) {
                 // Report at whichever of the two stands later in the file.
                 const bool r_later = std::tie(r.pos.line, r.pos.column) >=
-                                     std::tie(earlier.pos.line, earlier.pos.column);
-                const Register& later = r_later ? r : earlier;
-                const Register& first = r_later ? earlier : r;
+                                     std::tie(reach->pos.line, reach->pos.column);
+                const Register& later = r_later ? r : *reach;
+                const Register& first = r_later ? *reach : r;
                 problem(
                     later.pos,
                     fmt::format("register \"{}\" (0x{:04X}) overlaps \"{}\" (0x{:04X}, {} "
@@ -625,9 +655,11 @@ class Loader {
                                 later.name, later.address, first.name, first.address, first.length,
                                 first.length == 1 ? "" : "s", first.pos.line, r.table));
             }
+            if (reach == nullptr || end_address(r) > end_address(*reach)) reach = &r;
         }
         std::map<std::string_view, const Register*> names;
-        for (const Register& r : regs) {
+        auto check_name = [&](const Register& r) {
+            if (r.name.empty()) return;  // reported as missing
             auto [it, fresh] = names.emplace(r.name, &r);
             if (!fresh) {
                 const Register& other = *it->second;
@@ -637,7 +669,9 @@ class Loader {
                         fmt::format("duplicate register name \"{}\" (also at line {})", r.name,
                                     r_later ? other.pos.line : r.pos.line));
             }
-        }
+        };
+        for (const Register& r : regs) check_name(r);
+        for (const Register& r : unsized_) check_name(r);
     }
 };
 
