@@ -7,6 +7,7 @@
 #include "bus_options.hpp"
 #include "decode/pdu_decoders.hpp"
 #include "errors.hpp"
+#include "util/text.hpp"
 #include "util/text_file.hpp"
 
 namespace rtuscope::cli {
@@ -198,8 +199,9 @@ int check_files(const BusArgs& args, const std::vector<std::string>& files) {
                     status = 1;
                     break;
                 }
-                fmt::print("{}: ok, profile \"{}\" with {} registers\n", file.path,
-                           file.profile.profile->name, file.profile.profile->registers.size());
+                fmt::print("{}: ok, profile \"{}\" with {} {}\n", file.path,
+                           file.profile.profile->name, file.profile.profile->registers.size(),
+                           plural(file.profile.profile->registers.size(), "register", "registers"));
                 break;
             case TomlFileKind::bus: {
                 const BusLoad load = read_bus_text(**bus, file.text, file.path);

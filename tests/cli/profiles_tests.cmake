@@ -71,7 +71,7 @@ add_cli_test(profiles_check_bus_file_with_profile_dir RC 0
   STDOUT_RE "^tests/data/custom_meter_bus.toml: ok, bus file with 1 device\n$")
 add_cli_test(profiles_check_bus_file_with_its_profile RC 0
   ARGS profiles check tests/data/custom_meter_bus.toml tests/data/profiles/custom_meter.toml
-  STDOUT_RE "^tests/data/custom_meter_bus.toml: ok, bus file with 1 device\ntests/data/profiles/custom_meter.toml: ok, profile \"custom-meter\" with 1 registers\n$")
+  STDOUT_RE "^tests/data/custom_meter_bus.toml: ok, bus file with 1 device\ntests/data/profiles/custom_meter.toml: ok, profile \"custom-meter\" with 1 register\n$")
 add_cli_test(profiles_check_neither_profile_nor_bus_file RC 1
   ARGS profiles check tests/data/not_a_profile.toml
   STDERR_RE "^tests/data/not_a_profile.toml: neither a device profile \\(\\[device\\]\\) nor a bus file \\(\\[\\[device\\]\\] entries or line\\): nothing to check\n$")
