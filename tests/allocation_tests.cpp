@@ -358,6 +358,7 @@ class DurationSets {
         Record r;
         if (polls_) {  // reads of register `set` from slave 1; cycles 2 ms, 2.007 ms ...
             r.kind = Kind::request;
+            r.awaits_answer = true;
             r.frame.bytes = test::with_crc({1, 0x03, static_cast<std::uint8_t>(set >> 8U),
                                             static_cast<std::uint8_t>(set), 0x00, 0x01});
         } else {  // answers from their own slave and function; 2 ms, 2.007 ms ...

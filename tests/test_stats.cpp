@@ -30,6 +30,7 @@ using test::with_crc;
 Record make_record(Kind kind, Bytes bytes, Nanos start = kNoTime, Nanos latency = kNoTime) {
     Record r;
     r.kind = kind;
+    r.awaits_answer = kind == Kind::request;
     r.frame.bytes = std::move(bytes);
     r.frame.cls = kind == Kind::noise     ? RecordClass::noise
                   : kind == Kind::invalid ? RecordClass::invalid
@@ -840,20 +841,107 @@ TEST(StatsOutput, AFullTableIsWrittenInPiecesNeverHeldWhole) {
         std::string whole;
         std::size_t pieces = 0;
         std::size_t largest = 0;
-        write_stats(s, format, {}, [&](std::string_view piece) {
-            whole += piece;
-            ++pieces;
-            largest = std::max(largest, piece.size());
-        });
+        write_stats(
+            s, format, {},
+            [&](std::string_view piece) {
+                whole += piece;
+                ++pieces;
+                largest = std::max(largest, piece.size());
+            },
+            0);
         EXPECT_GT(whole.size(), std::size_t{10} << 16);  // ten pieces at least
         EXPECT_GT(pieces, whole.size() / (std::size_t{66} << 10));
         EXPECT_LT(largest, std::size_t{66} << 10);  // 64 KiB and the line that passed it
-        EXPECT_EQ(whole, render_stats(s, format));
+        EXPECT_EQ(whole, render_stats(s, format, {}, 0));
         EXPECT_EQ(std::count(whole.begin(), whole.end(), '\n'),
                   format == StatsFormat::text  ? 32'768 + 9    // rows, all, header, 6 above
                   : format == StatsFormat::csv ? 32'768 + 2    // rows, all, header
                                                : 32'768 + 1);  // rows, the bus line
     }
+}
+
+// Slave s (1..30) asked s times: rows of 1 to 30 requests.
+BusStats thirty_slaves() {
+    BusStats s;
+    for (unsigned slave = 1; slave <= 30; ++slave) {
+        for (unsigned i = 0; i < slave; ++i) {
+            s.add(make_record(Kind::request, with_crc({static_cast<std::uint8_t>(slave), 0x03,
+                                                       0x00, 0x00, 0x00, 0x01})));
+        }
+    }
+    s.finish();
+    return s;
+}
+
+bool lists_slave(const std::string& text, unsigned slave) {
+    return text.find(fmt::format("\n{:>7}  03  Read Holding Registers", slave)) !=
+           std::string::npos;
+}
+
+TEST(StatsText, ListsTheBusiestRowsAndCountsTheRest) {
+    const BusStats s = thirty_slaves();
+    const std::string text = render_stats(s, StatsFormat::text);
+    for (unsigned slave = 11; slave <= 30; ++slave) EXPECT_TRUE(lists_slave(text, slave)) << slave;
+    for (unsigned slave = 1; slave <= 10; ++slave) EXPECT_FALSE(lists_slave(text, slave)) << slave;
+    // The ten left out hold 1 + 2 + ... + 10 requests; the all row counts all 465.
+    EXPECT_NE(text.find("  ... 10 more rows with 55 frames (--top 0 lists them)\n"),
+              std::string::npos)
+        << text;
+    EXPECT_NE(text.find("    all                              465"), std::string::npos) << text;
+
+    const std::string three = render_stats(s, StatsFormat::text, {}, 3);
+    EXPECT_TRUE(lists_slave(three, 28) && lists_slave(three, 29) && lists_slave(three, 30));
+    EXPECT_FALSE(lists_slave(three, 27)) << three;
+    EXPECT_NE(three.find("  ... 27 more rows with 378 frames"), std::string::npos) << three;
+}
+
+TEST(StatsText, TopZeroListsEveryRowAndCsvAlwaysDoes) {
+    const BusStats s = thirty_slaves();
+    const std::string text = render_stats(s, StatsFormat::text, {}, 0);
+    for (unsigned slave = 1; slave <= 30; ++slave) EXPECT_TRUE(lists_slave(text, slave)) << slave;
+    EXPECT_EQ(text.find("more rows"), std::string::npos) << text;
+    const std::vector<std::string> csv = lines_of(render_stats(s, StatsFormat::csv, {}, 3));
+    EXPECT_EQ(csv.size(), 1U + 30U + 1U);  // header, rows, all
+}
+
+TEST(StatsText, GarbledInvalidFramesMakeOneLineNotRows) {
+    BusStats s;
+    s.add(make_record(Kind::request, with_crc({0x01, 0x03, 0x00, 0x00, 0x00, 0x01})));
+    // Bad CRCs that no pairing took for a request or an answer: their address and function
+    // are whatever the corruption left.
+    for (const std::uint8_t slave : {std::uint8_t{77}, std::uint8_t{78}, std::uint8_t{200}}) {
+        Record r = make_record(Kind::invalid, {slave, 0x55, 0x12, 0x34, 0x00, 0x00});
+        ASSERT_EQ(r.frame.crc.status, CrcStatus::bad);
+        s.add(r);
+    }
+    s.finish();
+    const std::string text = render_stats(s, StatsFormat::text);
+    EXPECT_FALSE(lists_slave(text, 77));
+    EXPECT_EQ(text.find("\n     77  55"), std::string::npos) << text;
+    EXPECT_NE(text.find("  invalid frames that are no bus traffic (their address or function "
+                        "code garbled): 3 CRC errors under 3 slaves and functions, in the all "
+                        "row\n"),
+              std::string::npos)
+        << text;
+    EXPECT_NE(text.find("\n      1  03  Read Holding Registers"), std::string::npos) << text;
+    // CSV keeps their rows.
+    EXPECT_NE(render_stats(s, StatsFormat::csv).find("\n77,85,"), std::string::npos);
+}
+
+TEST(StatsText, IrregularRepeatsHaveNoCycle) {
+    const Bytes write = with_crc({0x01, 0x06, 0x00, 0x10, 0x00, 0x01});
+    BusStats s;
+    // A poll every 100 ms, and a write sent at 0, 10, 20 ms and then 5 s later.
+    for (Nanos t = 0; t < 2000; t += 100) s.add(make_record(Kind::request, kRead, t * kMs));
+    for (Nanos t : {0, 10, 20, 30, 5000}) s.add(make_record(Kind::request, write, t * kMs));
+    s.finish();
+    const std::string text = render_stats(s, StatsFormat::text);
+    EXPECT_NE(text.find("      1  03  0x0000 x2        20        100.00     100.00\n"),
+              std::string::npos)
+        << text;
+    EXPECT_EQ(text.find("00 10 00 01"), std::string::npos) << text;
+    EXPECT_NE(text.find("  1 request repeats irregularly"), std::string::npos) << text;
+    EXPECT_NE(text.find("irregular        -\n"), std::string::npos) << text;  // the 06 row
 }
 
 TEST(StatsJsonl, EveryLineIsOneObjectWithTheKeys) {

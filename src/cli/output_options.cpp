@@ -83,6 +83,10 @@ void add_output_options(CLI::App& cmd, OutputArgs& args) {
 void add_stats_options(CLI::App& cmd, OutputArgs& args) {
     auto* csv = cmd.add_flag("--csv", args.csv, "Print the statistics as CSV");
     cmd.add_flag("--jsonl", args.jsonl, "Print the statistics as JSON Lines")->excludes(csv);
+    cmd.add_option("--top", args.stats_top,
+                   "Rows per table in the text statistics: the busiest N (0: all)")
+        ->default_val(kStatsTop)
+        ->check(CLI::NonNegativeNumber);
     add_line_options(cmd, args);
     add_filter_options(cmd, args);
     add_bus_options(cmd, args.bus);
@@ -238,7 +242,8 @@ std::optional<Decoding> prepare_decoding(const OutputArgs& args, int& exit_code,
     if (args.stats) {
         d.sink = make_stats_sink(stdout, args.csv     ? StatsFormat::csv
                                          : args.jsonl ? StatsFormat::jsonl
-                                                      : StatsFormat::text);
+                                                      : StatsFormat::text,
+                                 args.stats_top);
     } else if (args.csv) {
         d.sink = make_csv_sink(stdout);
     } else if (args.jsonl) {

@@ -11,6 +11,7 @@
 #include "bus_options.hpp"
 #include "output/pcap_writer.hpp"
 #include "pipeline.hpp"
+#include "stats/report.hpp"
 
 namespace rtuscope::cli {
 
@@ -22,6 +23,7 @@ struct OutputArgs {
     bool jsonl = false;
     bool stats = false;          // the stats command: statistics in the chosen format
     bool closing_stats = false;  // sniff/demo: the statistics on stderr at the end
+    std::size_t stats_top = kStatsTop;  // text statistics: rows per table (0: all)
     std::string pcap_file;
     std::string slaves;
     std::string functions;

@@ -30,6 +30,7 @@ void Record::clear() {
     number = 0;
     kind = Kind::noise;
     request_number = 0;
+    awaits_answer = false;
     latency = kNoTime;
     request.clear();
     notes.clear();
@@ -208,6 +209,7 @@ void Transactions::push(Frame& frame) {
     const bool awaits = (record.kind == Kind::request ||
                          (invalid && is_request && !options_.rules->is_broadcast(f.slave()))) &&
                         options_.rules->expects_answer(f.slave(), f.function());
+    record.awaits_answer = awaits;
     ++count_;
     if (awaits) {
         awaiting_ = count_ - 1;

@@ -37,6 +37,9 @@ struct Record {
     Kind kind = Kind::noise;
     std::uint64_t request_number = 0;   // answers: the request they answer; 0 if none
     Nanos latency = kNoTime;            // answers: end of request to start of answer
+    // Requests: it waited for an answer (not a broadcast, nor a function never answered),
+    // so it has one outcome: an answer, an exception, a broken answer or none.
+    bool awaits_answer = false;
     std::vector<std::uint8_t> request;  // answers: the request frame, for decoding
     Notes notes;                        // everything noticed, frame notes first
     DecodedPdu decoded;                 // filled by the decoder stage

@@ -48,27 +48,32 @@ void BusStats::add(const Record& record) {
     const Key key{f.slave(), static_cast<std::uint8_t>(f.function() & 0x7FU)};
     const bool crc_error = f.crc.status == CrcStatus::bad || f.crc.status == CrcStatus::swapped;
     const bool invalid = record.kind == Kind::invalid;
-    // What the pairing took for a request or an answer, broken ones included. A request
-    // still waiting when the run stopped has no outcome yet: it is not counted.
+    // What the pairing took for a request awaiting an answer or for an answer, broken ones
+    // included. A request still waiting when the run stopped has no outcome yet: it is not
+    // counted.
     const bool request =
-        (record.kind == Kind::request || (invalid && f.reading == Reading::request)) &&
-        !record.notes.has(note_id::stopped_before_answer);
+        record.awaits_answer && !record.notes.has(note_id::stopped_before_answer);
     const bool answer = record.kind == Kind::response || record.kind == Kind::exception ||
                         (invalid && record.request_number != 0);
     // Rows only for what has a column: an unknown frame alone would be an empty row.
-    if (!crc_error && !request && !answer && record.kind != Kind::broadcast) return;
+    if (!crc_error && !request && !answer && record.kind != Kind::broadcast &&
+        record.kind != Kind::request) {
+        return;
+    }
     FunctionStats& s = functions_[key];
     if (s.function == nullptr) s.function = record.decoded.function;
     if (crc_error) ++s.crc_errors;
     if (record.kind == Kind::broadcast) ++s.broadcasts;
-    if (request) count_request(s, key, record);
+    if (request) {
+        ++s.requests;
+        if (record.notes.has(note_id::no_answer)) ++s.no_answer;
+    }
+    if (record.kind == Kind::request) count_poll(key, record);
     if (answer) count_answer(s, record);
 }
 
-void BusStats::count_request(FunctionStats& s, const Key& key, const Record& record) {
+void BusStats::count_poll(const Key& key, const Record& record) {
     const Frame& f = record.frame;
-    ++s.requests;
-    if (record.notes.has(note_id::no_answer)) ++s.no_answer;
     PollKey poll{key.first, key.second, {}, 0};
     const std::size_t data = f.bytes.size() >= 4 ? f.bytes.size() - 4 : 0;
     poll.size = static_cast<std::uint8_t>(std::min<std::size_t>(data, 4));

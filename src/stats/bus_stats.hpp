@@ -143,7 +143,7 @@ class BusStats {
         std::optional<Key> key) const;
 
   private:
-    void count_request(FunctionStats& s, const Key& key, const Record& record);
+    void count_poll(const Key& key, const Record& record);
     void count_answer(FunctionStats& s, const Record& record);
     PollStats& poll_of(const PollKey& key);
     void forget_rare_polls();

@@ -154,7 +154,44 @@ void table(Pieces& out, const std::vector<bool>& right, Rows rows) {
     });
 }
 
-void write_text(const BusStats& stats, const std::vector<std::string>& remarks, Pieces& pieces) {
+// Whether a poll's repeats keep a rhythm: its p95 at most twice its median. Irregular
+// repeats (a write now and then, a request the operator sends by hand) have no cycle.
+bool regular(const DurationCounts& cycles) {
+    const auto median = cycles.percentile(50);
+    const auto p95 = cycles.percentile(95);
+    return median && p95 && *p95 <= 2 * *median;
+}
+
+// A row that is bus traffic: something was asked or answered. Rows of frames that are
+// neither (a corrupt address or function code: CRC errors only) are not.
+bool is_traffic(const FunctionStats& s) {
+    return s.requests + s.answers + s.exceptions + s.broken + s.broadcasts + s.unsolicited != 0;
+}
+
+std::uint64_t frames_of(const FunctionStats& s) {
+    return s.requests + s.answers + s.exceptions + s.broken + s.broadcasts + s.unsolicited +
+           s.crc_errors;
+}
+
+// The `top` busiest of `items` by `weight` (all of them for top 0), in their own order.
+template <class T, class Weight>
+std::vector<T> busiest(std::vector<T> items, std::size_t top, Weight weight) {
+    if (top == 0 || items.size() <= top) return items;
+    std::vector<T> by_weight = items;
+    std::stable_sort(by_weight.begin(), by_weight.end(),
+                     [&](const T& a, const T& b) { return weight(a) > weight(b); });
+    by_weight.resize(top);
+    std::vector<T> kept;
+    for (const T& item : items) {
+        if (std::find(by_weight.begin(), by_weight.end(), item) != by_weight.end()) {
+            kept.push_back(item);
+        }
+    }
+    return kept;
+}
+
+void write_text(const BusStats& stats, const std::vector<std::string>& remarks, Pieces& pieces,
+                std::size_t top) {
     const SessionInfo& session = stats.session();
     const BusFigures& bus = stats.bus();
     std::string& out = pieces.text();
@@ -174,7 +211,12 @@ void write_text(const BusStats& stats, const std::vector<std::string>& remarks, 
                            bus.bytes, plural(bus.bytes, "byte", "bytes"),
                            static_cast<double>(session.line.char_time()) / 1e6);
         const auto* poll = stats.main_poll(std::nullopt);
-        if (poll != nullptr && !poll->second.cycles.empty()) {
+        if (poll != nullptr && !poll->second.cycles.empty() && !regular(poll->second.cycles)) {
+            out += fmt::format(
+                "poll cycle: none regular (the most frequent request, slave {} function {:02X} "
+                "{}, repeats irregularly)\n",
+                poll->first.slave, poll->first.function, poll_data_text(stats, poll->first));
+        } else if (poll != nullptr && !poll->second.cycles.empty()) {
             out += fmt::format(
                 "poll cycle: {} ms median, {} ms max (slave {} function {:02X} {}, "
                 "{} {})\n",
@@ -216,66 +258,137 @@ void write_text(const BusStats& stats, const std::vector<std::string>& remarks, 
         "exc + broken\n(an answer with a bad CRC or cut short) + no ans; p50..max: turnaround "
         "over the n measured\nanswers; cycle: of the slave's most frequent poll for that "
         "function):\n";
+    using Row = const std::pair<const BusStats::Key, FunctionStats>*;
+    std::vector<Row> traffic;
+    std::uint64_t junk_rows = 0;
+    std::uint64_t junk_crc_errors = 0;
+    for (const auto& row : stats.functions()) {
+        if (is_traffic(row.second)) {
+            traffic.push_back(&row);
+        } else {
+            ++junk_rows;
+            junk_crc_errors += row.second.crc_errors;
+        }
+    }
+    const std::vector<Row> shown =
+        busiest(traffic, top, [](Row r) { return frames_of(r->second); });
+    const auto row_cells = [&](const RowFigures& f) {
+        const FunctionStats& c = *f.counts;
+        const bool irregular = f.cycles != nullptr && !f.cycles->empty() && !regular(*f.cycles);
+        return std::vector<std::string>{
+            f.key ? fmt::format("{}", f.key->first) : "all",
+            f.key ? fmt::format("{:02X}", f.key->second) : "",
+            f.key ? function_of(stats, f.key->first, f.key->second).name : "",
+            fmt::format("{}", c.requests), fmt::format("{}", c.answers),
+            fmt::format("{}", c.exceptions), fmt::format("{}", c.broken),
+            fmt::format("{}", c.no_answer), fmt::format("{}", c.crc_errors),
+            fmt::format("{}", c.broadcasts), fmt::format("{}", c.unsolicited),
+            fmt::format("{}", c.turnarounds.size()), ms_text(f.p50, c.turnarounds.bin_width()),
+            ms_text(f.p95, c.turnarounds.bin_width()), ms_text(f.p99, c.turnarounds.bin_width()),
+            ms(f.max, 2, "-"),
+            irregular ? std::string("irregular")
+                      : ms_text(f.cycle_median, f.cycles != nullptr ? f.cycles->bin_width() : 0),
+            irregular ? std::string("-") : ms(f.cycle_max, 2, "-")};
+    };
     const auto rows = [&](const auto& emit) {
         emit({"slave", "fc", "function", "req", "ans", "exc", "broken", "no ans", "crc", "bcast",
               "unsol", "n", "p50", "p95", "p99", "max", "cycle", "cyc max"});
-        for_each_row(stats, [&](const RowFigures& f) {
-            const FunctionStats& c = *f.counts;
-            emit({f.key ? fmt::format("{}", f.key->first) : "all",
-                  f.key ? fmt::format("{:02X}", f.key->second) : "",
-                  f.key ? function_of(stats, f.key->first, f.key->second).name : "",
-                  fmt::format("{}", c.requests), fmt::format("{}", c.answers),
-                  fmt::format("{}", c.exceptions), fmt::format("{}", c.broken),
-                  fmt::format("{}", c.no_answer), fmt::format("{}", c.crc_errors),
-                  fmt::format("{}", c.broadcasts), fmt::format("{}", c.unsolicited),
-                  fmt::format("{}", c.turnarounds.size()),
-                  ms_text(f.p50, c.turnarounds.bin_width()),
-                  ms_text(f.p95, c.turnarounds.bin_width()),
-                  ms_text(f.p99, c.turnarounds.bin_width()), ms(f.max, 2, "-"),
-                  ms_text(f.cycle_median, f.cycles != nullptr ? f.cycles->bin_width() : 0),
-                  ms(f.cycle_max, 2, "-")});
-        });
+        for (Row row : shown) emit(row_cells(row_of(stats, row->first, row->second)));
+        emit(row_cells(bus_row(stats)));
     };
     table(pieces,
           {true, true, false, true, true, true, true, true, true, true, true, true, true, true,
            true, true, true, true},
           rows);
-
-    const auto exceptions = [&](const auto& emit) {
-        emit({"slave", "fc", "code", "exception", "count"});
-        for (const auto& [key, s] : stats.functions()) {
-            for (const auto& [code, n] : s.exception_codes) {
-                const char* name = exception_name(code);
-                emit({fmt::format("{}", key.first), fmt::format("{:02X}", key.second),
-                      fmt::format("{:02X}", code), name != nullptr ? name : "undefined",
-                      fmt::format("{}", n)});
+    if (shown.size() < traffic.size()) {
+        std::uint64_t frames = 0;
+        for (Row row : traffic) {
+            if (std::find(shown.begin(), shown.end(), row) == shown.end()) {
+                frames += frames_of(row->second);
             }
         }
+        out += fmt::format("  ... {} more {} with {} {} (--top 0 lists them)\n",
+                           traffic.size() - shown.size(),
+                           plural(traffic.size() - shown.size(), "row", "rows"), frames,
+                           plural(frames, "frame", "frames"));
+    }
+    if (junk_rows != 0) {
+        out += fmt::format(
+            "  invalid frames that are no bus traffic (their address or function code "
+            "garbled): {} {} under {} {}, in the all row\n",
+            junk_crc_errors, plural(junk_crc_errors, "CRC error", "CRC errors"), junk_rows,
+            plural(junk_rows, "slave and function", "slaves and functions"));
+    }
+    pieces.line_done();
+
+    struct ExceptionRow {
+        BusStats::Key key;
+        std::uint8_t code;
+        std::uint64_t count;
+        bool operator==(const ExceptionRow&) const = default;
     };
-    const bool any_exception =
-        std::any_of(stats.functions().begin(), stats.functions().end(),
-                    [](const auto& entry) { return !entry.second.exception_codes.empty(); });
-    if (any_exception) {
+    std::vector<ExceptionRow> exception_rows;
+    for (const auto& [key, row] : stats.functions()) {
+        for (const auto& [code, n] : row.exception_codes) exception_rows.push_back({key, code, n});
+    }
+    if (!exception_rows.empty()) {
+        const std::vector<ExceptionRow> listed =
+            busiest(exception_rows, top, [](const ExceptionRow& e) { return e.count; });
+        const auto exceptions = [&](const auto& emit) {
+            emit({"slave", "fc", "code", "exception", "count"});
+            for (const ExceptionRow& e : listed) {
+                const char* name = exception_name(e.code);
+                emit({fmt::format("{}", e.key.first), fmt::format("{:02X}", e.key.second),
+                      fmt::format("{:02X}", e.code), name != nullptr ? name : "undefined",
+                      fmt::format("{}", e.count)});
+            }
+        };
         out += "\nexceptions:\n";
         table(pieces, {true, true, true, false, true}, exceptions);
+        if (listed.size() < exception_rows.size()) {
+            out += fmt::format("  ... {} more (--top 0 lists them)\n",
+                               exception_rows.size() - listed.size());
+        }
     }
 
-    // Only polls that repeat have a cycle; a bus with varying writes would otherwise
-    // list every one of them.
-    const auto repeats = [](const auto& entry) { return !entry.second.cycles.empty(); };
-    if (stats.timed() && std::any_of(stats.polls().begin(), stats.polls().end(), repeats)) {
+    // Polls whose repeats keep a rhythm, the busiest first: a bus with varying writes or
+    // requests sent by hand would otherwise list every one of them.
+    if (!stats.timed()) return;
+    using Poll = const std::pair<const PollKey, PollStats>*;
+    std::vector<Poll> cyclic;
+    std::uint64_t irregular = 0;
+    for (const auto& poll : stats.polls()) {
+        if (poll.second.cycles.empty()) continue;
+        if (regular(poll.second.cycles)) {
+            cyclic.push_back(&poll);
+        } else {
+            ++irregular;
+        }
+    }
+    if (cyclic.empty() && irregular == 0) return;
+    const std::vector<Poll> listed =
+        busiest(cyclic, top, [](Poll p) { return p->second.requests; });
+    out += "\npolls (times in ms):\n";
+    if (!listed.empty()) {
         const auto polls = [&](const auto& emit) {
             emit({"slave", "fc", "data", "requests", "cycle median", "cycle max"});
-            for (const auto& [key, p] : stats.polls()) {
-                if (p.cycles.empty()) continue;
+            for (Poll poll : listed) {
+                const auto& [key, p] = *poll;
                 emit({fmt::format("{}", key.slave), fmt::format("{:02X}", key.function),
                       poll_data_text(stats, key), fmt::format("{}", p.requests),
                       ms_text(p.cycles.percentile(50), p.cycles.bin_width()),
                       ms(p.cycles.percentile(100), 2, "-")});
             }
         };
-        out += "\npolls (times in ms):\n";
         table(pieces, {true, true, false, true, true, true}, polls);
+    }
+    if (listed.size() < cyclic.size()) {
+        out += fmt::format("  ... {} more (--top 0 lists them)\n", cyclic.size() - listed.size());
+    }
+    if (irregular != 0) {
+        out += fmt::format(
+            "  {} {} irregularly (p95 of the intervals above twice the median): no cycle\n",
+            irregular, plural(irregular, "request repeats", "requests repeat"));
     }
 }
 
@@ -387,27 +500,30 @@ void write_jsonl(const BusStats& stats, Pieces& pieces) {
 
 class StatsSink final : public RecordSink {
   public:
-    StatsSink(std::FILE* out, StatsFormat format) : out_(out), format_(format) {}
+    StatsSink(std::FILE* out, StatsFormat format, std::size_t top)
+        : out_(out), format_(format), top_(top) {}
 
     void begin(const SessionInfo& session) override { stats_.begin(session); }
     void record(const Record& record) override { stats_.add(record); }
     void end(const Totals& /*totals*/, const std::vector<std::string>& remarks) override {
         stats_.finish();
-        write_stats(stats_, format_, remarks,
-                    [this](std::string_view text) { write_output(out_, text); });
+        write_stats(
+            stats_, format_, remarks, [this](std::string_view text) { write_output(out_, text); },
+            top_);
         flush_output(out_);
     }
 
   private:
     std::FILE* out_;
     StatsFormat format_;
+    std::size_t top_;
     BusStats stats_;
 };
 
 }  // namespace
 
 void write_stats(const BusStats& stats, StatsFormat format, const std::vector<std::string>& remarks,
-                 const std::function<void(std::string_view)>& send) {
+                 const std::function<void(std::string_view)>& send, std::size_t top) {
     Pieces pieces(send);
     switch (format) {
         case StatsFormat::csv:
@@ -417,21 +533,21 @@ void write_stats(const BusStats& stats, StatsFormat format, const std::vector<st
             write_jsonl(stats, pieces);
             break;
         case StatsFormat::text:
-            write_text(stats, remarks, pieces);
+            write_text(stats, remarks, pieces, top);
             break;
     }
     pieces.send();
 }
 
 std::string render_stats(const BusStats& stats, StatsFormat format,
-                         const std::vector<std::string>& remarks) {
+                         const std::vector<std::string>& remarks, std::size_t top) {
     std::string text;
-    write_stats(stats, format, remarks, [&](std::string_view piece) { text += piece; });
+    write_stats(stats, format, remarks, [&](std::string_view piece) { text += piece; }, top);
     return text;
 }
 
-std::unique_ptr<RecordSink> make_stats_sink(std::FILE* out, StatsFormat format) {
-    return std::make_unique<StatsSink>(out, format);
+std::unique_ptr<RecordSink> make_stats_sink(std::FILE* out, StatsFormat format, std::size_t top) {
+    return std::make_unique<StatsSink>(out, format, top);
 }
 
 }  // namespace rtuscope
