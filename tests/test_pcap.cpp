@@ -283,8 +283,10 @@ Drained read_memory(const std::string& content) {
     if (!source.ok()) return {};
     EXPECT_EQ((*source)->info().format, "pcap");
     EXPECT_TRUE((*source)->info().timed);
-    EXPECT_TRUE((*source)->info().chunk_is_frame);
-    return drain(**source);
+    EXPECT_TRUE((*source)->info().chunk_time_is_start);
+    Drained d = drain(**source);
+    for (const Chunk& c : d.chunks) EXPECT_TRUE(c.whole_frame);
+    return d;
 }
 
 const Bytes kRequest = with_crc({0x01, 0x03, 0x00, 0x00, 0x00, 0x02});

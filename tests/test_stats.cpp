@@ -880,7 +880,7 @@ TEST(StatsJsonl, CheckerRejectsBrokenJson) {
 
 TEST(StatsJsonl, StringsAreEscaped) {
     BusStats s;
-    s.begin(SessionInfo{{"we\"ird\n.rtucap", "capture", {}, false, false}, {}, ""});
+    s.begin(SessionInfo{{"we\"ird\n.rtucap", "capture", {}, false}, {}, ""});
     s.finish();
     const std::vector<std::string> lines = lines_of(render_stats(s, StatsFormat::jsonl));
     ASSERT_EQ(lines.size(), 1U);

@@ -167,7 +167,7 @@ struct Emitted {
     std::vector<Record> records;
     std::uint64_t held_most = 0;
 };
-Emitted run_counting_held(const std::vector<Chunk>& chunks, bool chunk_is_frame = false) {
+Emitted run_counting_held(const std::vector<Chunk>& chunks) {
     Emitted out;
     std::uint64_t pushed = 0;
     Transactions transactions({kNanosPerSecond, &standard_rules()}, [&](Record&& record) {
@@ -175,7 +175,6 @@ Emitted run_counting_held(const std::vector<Chunk>& chunks, bool chunk_is_frame 
         out.records.push_back(std::move(record));
     });
     FramerOptions options;
-    options.chunk_is_frame = chunk_is_frame;
     options.expectation = &transactions;
     Framer framer(options, [&](Frame& f) {
         ++pushed;
@@ -214,7 +213,8 @@ TEST(Transactions, NoAnswerWithinTheMostFramesHeldBehindARequest) {
 }
 
 TEST(Transactions, NoAnswerWithinTheMostBytesHeldBehindARequest) {
-    // A hex log (a frame a line, no times): a request, then lines of 300,000 bytes.
+    // Frames that stand alone (as a pcap's packets), no times: a request, then frames of
+    // 300,000 bytes.
     std::vector<Chunk> lines(1);
     lines[0].bytes = kRead;
     for (int i = 0; i < 6; ++i) {
@@ -224,7 +224,8 @@ TEST(Transactions, NoAnswerWithinTheMostBytesHeldBehindARequest) {
         big.bytes[1] = 0x03;
         lines.push_back(std::move(big));
     }
-    const Emitted e = run_counting_held(lines, true);
+    for (Chunk& line : lines) line.whole_frame = true;
+    const Emitted e = run_counting_held(lines);
     const std::vector<Record>& r = e.records;
     ASSERT_EQ(r.size(), 7U);
     ASSERT_TRUE(has_note(r[0], note_id::no_answer));

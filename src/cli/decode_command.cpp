@@ -67,8 +67,9 @@ void add_decode_command(CLI::App& app, int& exit_code) {
                                        "annotated text, CSV or JSON Lines");
     cmd->add_option("FILE", args->file, "Input file ('-' for standard input)")->required();
     cmd->add_option("--input-format", args->input_format,
-                    "capture (native text format), raw (bytes, no timing), hex (one frame "
-                    "per line) or pcap (pcap/pcapng); default: detected from the content")
+                    "capture (native text format), raw (bytes, no timing), hex (bytes in hex "
+                    "a line at a time) or pcap (pcap/pcapng); default: detected from the "
+                    "content")
         ->check(CLI::IsMember({"auto", "capture", "raw", "hex", "pcap"}));
     add_output_options(*cmd, args->output);
     cmd->callback([args, &exit_code] { exit_code = run_decode(*args); });

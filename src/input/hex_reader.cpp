@@ -1,5 +1,5 @@
-// Hex reader: one frame per line, the way vendor manuals and serial-terminal logs show
-// them, e.g.
+// Hex reader: bytes in hex, a line at a time, the way vendor manuals and serial-terminal
+// logs show them, e.g.
 //
 //   主机：01 03 00 00 00 02 c4 0b
 //   ZB-UVI485模块：**01 03 02 18 18 b2 4e**
@@ -7,11 +7,14 @@
 //   10:21:33.120 RX 01 03 02 17 F8 B6 36
 //   010300000002C40B                        // one continuous token
 //
-// The frame is the longest run of two-digit hex tokens at the end of the line (or one
-// continuous even-length token); whatever comes before it is decoration, searched only
-// for a timestamp. Scanning from the end is what keeps a time like 10:21:33 from being
-// read as bytes: a token with ':' inside is never a hex token, and a decoration glued to
-// the first byte (`TX:01`) is only split off when it cannot be the tail of a time.
+// The bytes are the longest run of two-digit hex tokens at the end of the line (or one
+// continuous even-length token); whatever comes before them is decoration, searched only
+// for a timestamp. Most lines hold one frame, and such a line is taken as it is (a whole
+// frame); a line that does not (a piece of a frame, as terminals that log each read()
+// write them, several frames, a wrong CRC) goes to the framer as bytes of the stream. Scanning from
+// the end is what keeps a time like 10:21:33 from being read as bytes: a token with ':' inside is
+// never a hex token, and a decoration glued to the first byte (`TX:01`) is only split off when it
+// cannot be the tail of a time.
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -20,12 +23,15 @@
 #include <memory>
 #include <utility>
 
+#include "framing/frame.hpp"
 #include "input/readers.hpp"
 
 namespace rtuscope::detail {
 namespace {
 
-constexpr int kMinFrameBytes = 3;
+// A line needs this many bytes to be taken, or a timestamp: a terminal that logs each
+// read() stamps every line, while a manual's prose ("step 2", "see 10") has none.
+constexpr std::size_t kMinFrameBytes = 3;
 
 bool is_ascii_space(char c) {
     return c == ' ' || c == '\t' || c == '\v' || c == '\f';
@@ -324,13 +330,15 @@ class HexReader final : public ChunkSource {
     explicit HexReader(std::unique_ptr<InputBuffer> in) : in_(std::move(in)) {
         info_.name = in_->name();
         info_.format = "hex";
-        info_.chunk_is_frame = true;
+        // A log stamps a line when it saw it: the frame, or the piece of one, starts then.
+        info_.chunk_time_is_start = true;
+        info_.chunk_is_line = true;
     }
 
-    // Reads up to the first frame so that info().timed is known before the pipeline
-    // copies it.
+    // Reads up to the first line with bytes so that info().timed is known before the
+    // pipeline copies it.
     Status open() {
-        Result<bool> got = read_frame(pending_);
+        Result<bool> got = read_line(pending_);
         if (!got) return got.error();
         has_pending_ = *got;
         return ok_status();
@@ -344,11 +352,24 @@ class HexReader final : public ChunkSource {
             out = std::move(pending_);
             return true;
         }
-        return read_frame(out);
+        return read_line(out);
     }
 
     [[nodiscard]] std::vector<std::string> remarks() const override {
-        if (skipped_count_ == 0) return {};
+        std::vector<std::string> out;
+        // Said only when some line was not a frame of its own: otherwise every line was
+        // one frame, as most logs are.
+        if (stream_lines_ != 0) {
+            out.push_back(fmt::format(
+                "{} held one frame{}, {} line{} framed as a byte stream (not one frame by "
+                "length and CRC)",
+                whole_lines_ == 0   ? std::string("no line")
+                : whole_lines_ == 1 ? std::string("1 line")
+                                    : fmt::format("{} lines", whole_lines_),
+                whole_lines_ <= 1 ? "" : " each", stream_lines_,
+                stream_lines_ == 1 ? " was" : "s were"));
+        }
+        if (skipped_count_ == 0) return out;
         constexpr std::size_t kShownRanges = 20;
         std::string text = fmt::format("skipped {} line{} with no frame: ", skipped_count_,
                                        skipped_count_ == 1 ? "" : "s");
@@ -358,11 +379,12 @@ class HexReader final : public ChunkSource {
             text += first == last ? fmt::format("{}", first) : fmt::format("{}-{}", first, last);
         }
         if (skipped_.size() > kShownRanges || ranges_dropped_) text += ", ...";
-        return {text};
+        out.push_back(std::move(text));
+        return out;
     }
 
   private:
-    Result<bool> read_frame(Chunk& out) {
+    Result<bool> read_line(Chunk& out) {
         std::string_view line;
         for (;;) {
             Result<bool> more = in_->next_line(line);
@@ -372,20 +394,26 @@ class HexReader final : public ChunkSource {
             if (is_blank_or_comment(line)) continue;
             out.bytes.clear();
             const HexLine scanned = scan_hex_line(line, &out.bytes);
-            if (scanned.byte_count < kMinFrameBytes) {
+            const FoundTime found =
+                scanned.byte_count == 0 ? FoundTime{} : find_time(scanned.decoration);
+            if (scanned.byte_count < kMinFrameBytes &&
+                (scanned.byte_count == 0 || !has_time(found.time))) {
                 skip(number);
                 continue;
             }
             out.channel.clear();
             out.source_line = number;
-            out.time = frame_time(scanned.decoration);
+            out.time = line_time(found);
+            // The standard lengths: a device's own layout of a standard code is no
+            // frame by them, and its line is framed with the device's rules instead.
+            out.whole_frame = is_whole_frame(out.bytes, standard_rules());
+            ++(out.whole_frame ? whole_lines_ : stream_lines_);
             if (has_time(out.time)) info_.timed = true;
             return true;
         }
     }
 
-    Nanos frame_time(std::string_view decoration) {
-        const FoundTime found = find_time(decoration);
+    Nanos line_time(const FoundTime& found) {
         if (!has_time(found.time) || found.date) return found.time;
         // A log of times without dates that runs past midnight goes on counting rather
         // than jumping back a day.
@@ -420,6 +448,8 @@ class HexReader final : public ChunkSource {
     bool has_pending_ = false;
     Nanos day_offset_ = 0;
     Nanos last_time_of_day_ = kNoTime;
+    std::uint64_t whole_lines_ = 0;   // lines that were one frame each
+    std::uint64_t stream_lines_ = 0;  // lines that went to the framer as bytes
     std::size_t skipped_count_ = 0;
     std::vector<std::pair<int, int>> skipped_;  // first and last line of each run
     bool ranges_dropped_ = false;
@@ -455,7 +485,7 @@ HexLine scan_hex_line(std::string_view line, std::vector<std::uint8_t>* bytes) {
         if (line[i] == '/') ++i;
     }
     if (run.count == 0) run = find_run(line);
-    if (bytes != nullptr && run.count >= kMinFrameBytes) append_bytes(segment, run.begin, *bytes);
+    if (bytes != nullptr && run.count != 0) append_bytes(segment, run.begin, *bytes);
     return {run.count, line.substr(0, run.begin)};
 }
 

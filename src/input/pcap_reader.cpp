@@ -265,7 +265,6 @@ class PcapSource final : public ChunkSource {
         info_.name = std::move(name);
         info_.format = "pcap";
         info_.timed = true;
-        info_.chunk_is_frame = true;
         info_.chunk_time_is_start = true;  // rtuscope and Wireshark stamp frame starts
     }
     ~PcapSource() override { pcap_close(pcap_); }
@@ -314,6 +313,7 @@ class PcapSource final : public ChunkSource {
             out.bytes.assign(got->frame.begin(), got->frame.end());
             out.source_line = 0;
             out.char_errors.clear();
+            out.whole_frame = true;  // one packet, one frame
             return true;
         }
     }
