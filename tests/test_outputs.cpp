@@ -6,7 +6,9 @@
 #include <algorithm>
 #include <cstdio>
 #include <cstdlib>
+#include <ctime>
 #include <memory>
+#include <optional>
 #include <random>
 #include <string>
 #include <utility>
@@ -120,8 +122,8 @@ TEST(Jsonl, StringsAreEscaped) {
     EXPECT_EQ(out, "{\"bad \xEF\xBF\xBD\"");
 }
 
-// The text's time column: time of day for absolute Unix times, seconds since the first
-// frame (-t r), seconds since the previous frame (-t d).
+// The text's time column: time of day for absolute Unix times (here -t u), seconds since
+// the first frame (-t r), seconds since the previous frame (-t d).
 TEST(Text, TimeColumnAbsoluteRelativeAndDelta) {
     const std::string capture =
         "# rtuscope capture v1\n# serial 9600 8N1\n"
@@ -142,12 +144,144 @@ TEST(Text, TimeColumnAbsoluteRelativeAndDelta) {
         return times;
     };
     // 8 bytes at 9600 baud take 8.333 ms: the frames start at .001667, .241667, .291667.
-    EXPECT_EQ(time_column(TimeFormat::absolute),
+    EXPECT_EQ(time_column(TimeFormat::utc),
               (std::vector<std::string>{"08:00:00.001667", "08:00:00.241667", "08:00:00.291667"}));
     EXPECT_EQ(time_column(TimeFormat::relative),
               (std::vector<std::string>{"       0.000000", "       0.240000", "       0.290000"}));
     EXPECT_EQ(time_column(TimeFormat::delta),
               (std::vector<std::string>{"       0.000000", "       0.240000", "       0.050000"}));
+}
+
+// TZ for one test: the text shows local time.
+class ScopedZone {
+  public:
+    explicit ScopedZone(const char* zone) {
+        if (const char* old = std::getenv("TZ")) old_ = old;
+        ::setenv("TZ", zone, 1);
+        ::tzset();
+    }
+    ~ScopedZone() {
+        if (old_) {
+            ::setenv("TZ", old_->c_str(), 1);
+        } else {
+            ::unsetenv("TZ");
+        }
+        ::tzset();
+    }
+    ScopedZone(const ScopedZone&) = delete;
+    ScopedZone& operator=(const ScopedZone&) = delete;
+
+  private:
+    std::optional<std::string> old_;
+};
+
+// Central European time and its summer time, as a POSIX rule: no tzdata needed.
+constexpr const char* kBerlin = "CET-1CEST,M3.5.0,M10.5.0/3";
+
+// The text's lines after the header and before the closing summary: date lines and
+// records, each record cut after its time column and the slave.
+std::vector<std::string> time_lines(const std::string& input, TimeFormat format) {
+    const std::string text = run_to_text(input, nullptr, [&](std::FILE* out) {
+        return make_text_sink(out, TextOptions{false, false, format});
+    });
+    std::vector<std::string> lines;
+    for (std::size_t at = text.find('\n') + 1; at < text.size();) {
+        const auto nl = text.find('\n', at);
+        std::string line = text.substr(at, nl - at);
+        at = nl + 1;
+        if (line.starts_with("-- ") && line.find("records,") != std::string::npos) break;
+        if (!line.starts_with("--")) line = line.substr(0, line.find("  ", 8) + 5);
+        lines.push_back(line);
+    }
+    return lines;
+}
+
+// Requests around midnight in Berlin (23:00 UTC) and in UTC, 2026-11-21; each line's time
+// is its last byte's end, 8.333 ms after the frame's start.
+const char* const kAroundMidnight =
+    "# rtuscope capture v1\n# serial 9600 8N1\n"
+    "1795301999.508333334 01 03 00 00 00 02 C4 0B\n"
+    "1795302000.508333334 01 03 00 00 00 02 C4 0B\n"
+    "1795305599.508333334 01 03 00 00 00 02 C4 0B\n"
+    "1795305600.508333334 01 03 00 00 00 02 C4 0B\n";
+
+TEST(Text, LocalTimeWithTheDateWhenItChanges) {
+    const ScopedZone zone(kBerlin);
+    EXPECT_EQ(
+        time_lines(kAroundMidnight, TimeFormat::local),
+        (std::vector<std::string>{"-- 2026-11-21 CET (UTC+01:00)", "    1 23:59:59.500000    1",
+                                  "-- 2026-11-22 CET (UTC+01:00)", "    2 00:00:00.500000    1",
+                                  "    3 00:59:59.500000    1", "    4 01:00:00.500000    1"}));
+    EXPECT_EQ(
+        time_lines(kAroundMidnight, TimeFormat::local_date),
+        (std::vector<std::string>{
+            "    1 2026-11-21 23:59:59.500000    1", "    2 2026-11-22 00:00:00.500000    1",
+            "    3 2026-11-22 00:59:59.500000    1", "    4 2026-11-22 01:00:00.500000    1"}));
+}
+
+TEST(Text, UtcTimeWithTheDateWhenItChanges) {
+    const ScopedZone zone(kBerlin);  // not used
+    EXPECT_EQ(time_lines(kAroundMidnight, TimeFormat::utc),
+              (std::vector<std::string>{"-- 2026-11-21 UTC", "    1 22:59:59.500000    1",
+                                        "    2 23:00:00.500000    1", "    3 23:59:59.500000    1",
+                                        "-- 2026-11-22 UTC", "    4 00:00:00.500000    1"}));
+    EXPECT_EQ(
+        time_lines(kAroundMidnight, TimeFormat::utc_date),
+        (std::vector<std::string>{
+            "    1 2026-11-21 22:59:59.500000    1", "    2 2026-11-21 23:00:00.500000    1",
+            "    3 2026-11-21 23:59:59.500000    1", "    4 2026-11-22 00:00:00.500000    1"}));
+    EXPECT_EQ(
+        time_lines(kAroundMidnight, TimeFormat::epoch),
+        (std::vector<std::string>{"    1 1795301999.500000    1", "    2 1795302000.500000    1",
+                                  "    3 1795305599.500000    1", "    4 1795305600.500000    1"}));
+}
+
+// Summer time ends at 01:00 UTC on 2026-10-25: the hour from 02:00 comes twice, told
+// apart by the zone line.
+TEST(Text, ANewZoneLineWhenSummerTimeEnds) {
+    const ScopedZone zone(kBerlin);
+    const std::string capture =
+        "# rtuscope capture v1\n# serial 9600 8N1\n"
+        "1792889999.508333334 01 03 00 00 00 02 C4 0B\n"
+        "1792890000.508333334 01 03 00 00 00 02 C4 0B\n";
+    EXPECT_EQ(
+        time_lines(capture, TimeFormat::local),
+        (std::vector<std::string>{"-- 2026-10-25 CEST (UTC+02:00)", "    1 02:59:59.500000    1",
+                                  "-- 2026-10-25 CET (UTC+01:00)", "    2 02:00:00.500000    1"}));
+}
+
+// A log's date and time without a zone, and a log's times of day, show as read in every
+// zone and in UTC alike; -t e gives the CSV's seconds.
+TEST(Text, TimesReadWithoutAZoneShowAsRead) {
+    const ScopedZone zone(kBerlin);
+    const std::string dated =
+        "[2024-05-01 23:59:59.120] 01 03 00 00 00 02 C4 0B\n"
+        "[2024-05-02 00:00:00.250] 01 03 00 00 00 02 C4 0B\n";
+    const std::vector<std::string> as_read = {"-- 2024-05-01", "    1 23:59:59.120000    1",
+                                              "-- 2024-05-02", "    2 00:00:00.250000    1"};
+    EXPECT_EQ(time_lines(dated, TimeFormat::local), as_read);
+    EXPECT_EQ(time_lines(dated, TimeFormat::utc), as_read);
+    EXPECT_EQ(time_lines(dated, TimeFormat::local_date),
+              (std::vector<std::string>{"    1 2024-05-01 23:59:59.120000    1",
+                                        "    2 2024-05-02 00:00:00.250000    1"}));
+    EXPECT_EQ(
+        time_lines(dated, TimeFormat::epoch),
+        (std::vector<std::string>{"    1 1714607999.120000    1", "    2 1714608000.250000    1"}));
+
+    const std::string times_of_day =
+        "[09:00:00.480] 01 03 00 00 00 02 C4 0B\n"
+        "[23:59:59.900] 01 03 00 00 00 02 C4 0B\n"
+        "[00:00:00.100] 01 03 00 00 00 02 C4 0B\n";
+    const std::vector<std::string> day_lines = {
+        "    1 09:00:00.480000    1", "    2 23:59:59.900000    1",
+        "-- day 2 (the log's times have no date)", "    3 00:00:00.100000    1"};
+    for (const TimeFormat format :
+         {TimeFormat::local, TimeFormat::local_date, TimeFormat::utc, TimeFormat::utc_date}) {
+        EXPECT_EQ(time_lines(times_of_day, format), day_lines);
+    }
+    EXPECT_EQ(time_lines(times_of_day, TimeFormat::epoch),
+              (std::vector<std::string>{"    1    32400.480000    1", "    2    86399.900000    1",
+                                        "    3    86400.100000    1"}));
 }
 
 // The latency is written without floating point; it must read exactly as fmt's rounding
@@ -203,7 +337,7 @@ TEST(Outputs, LatencyReadsAsFmtRoundsTheMilliseconds) {
         csv_latencies.push_back(csv.substr(field, csv.find(',', field) - field));
     }
     const std::string text = written([](std::FILE* out) {
-        return make_text_sink(out, TextOptions{false, false, TimeFormat::absolute});
+        return make_text_sink(out, TextOptions{false, false, TimeFormat::local});
     });
     std::vector<std::string> text_latencies;
     for (std::size_t at = text.find(" ms after #"); at != std::string::npos;

@@ -89,6 +89,20 @@ TEST(SourcesInputFormat, ParsesNamesAndRejectsOthers) {
 
 // --- capture format ---------------------------------------------------------------------
 
+// A capture's times are Unix time from 2001 on, relative seconds below.
+TEST(CaptureReader, TheFirstTimestampTellsWhatTheTimesAre) {
+    for (const auto& [first, base] :
+         {std::pair("1763798400.022360", TimeBase::unix_time),
+          std::pair("0.022360", TimeBase::relative), std::pair("bad", TimeBase::relative)}) {
+        SCOPED_TRACE(first);
+        auto source = from_memory(
+            capture(std::string("# serial 9600 8N1\n") + first + " 01 03 00 00 00 02 C4 0B\n"),
+            InputFormat::capture);
+        ASSERT_TRUE(source);
+        EXPECT_EQ(source->info().time_base, base);
+    }
+}
+
 TEST(CaptureReader, ReadsHeaderAndDataLines) {
     auto source = from_memory(capture("# serial 19200 8E1\n"
                                       "# a comment\n"
@@ -101,6 +115,7 @@ TEST(CaptureReader, ReadsHeaderAndDataLines) {
     EXPECT_EQ(info.name, "cap.rtucap");
     EXPECT_EQ(info.format, "capture");
     EXPECT_TRUE(info.timed);
+    EXPECT_EQ(info.time_base, TimeBase::unix_time);
     EXPECT_FALSE(info.chunk_time_is_start);
     ASSERT_TRUE(info.line.has_value());
     EXPECT_EQ(info.line->baud, 19200U);
@@ -376,6 +391,7 @@ TEST(RawReader, DeliversChunksOfAtMost4096BytesWithoutTime) {
     EXPECT_EQ(source->info().format, "raw");
     EXPECT_EQ(source->info().name, "dump.bin");
     EXPECT_FALSE(source->info().timed);
+    EXPECT_EQ(source->info().time_base, TimeBase::none);
     EXPECT_FALSE(source->info().chunk_is_line);
     EXPECT_FALSE(source->info().line.has_value());
     Drained d = drain(*source);
@@ -580,6 +596,26 @@ TEST(HexReader, TimedWhenAnyLineHasATimeAndTimeOfDayRollsOverMidnight) {
     EXPECT_EQ(d.chunks[0].time, 86399900000000);
     EXPECT_EQ(d.chunks[1].time, 86400100000000);
     EXPECT_EQ(d.chunks[1].bytes.back(), 0x9B);  // CR stripped
+}
+
+// What a log's times are, from its first timestamp: a date with a UTC offset is Unix
+// time, a date without one is read as printed (counted as if UTC), a time of day alone is
+// a time of day; no timestamp, no times.
+TEST(HexReader, SaysWhatItsTimesAre) {
+    const std::vector<std::pair<const char*, TimeBase>> cases = {
+        {"2024-05-01T10:21:33Z 01 03 00 00 00 02 C4 0B", TimeBase::unix_time},
+        {"2024-05-01 18:21:33+08:00 01 03 00 00 00 02 C4 0B", TimeBase::unix_time},
+        {"[2024-05-01 10:21:33.120] 01 03 00 00 00 02 C4 0B", TimeBase::wall_clock},
+        {"2024-05-01 10:21:33 Zone 01 03 00 00 00 02 C4 0B", TimeBase::wall_clock},
+        {"[10:21:33.120] 01 03 00 00 00 02 C4 0B", TimeBase::time_of_day},
+        {"01 03 00 00 00 02 C4 0B", TimeBase::none},
+    };
+    for (const auto& [line, base] : cases) {
+        SCOPED_TRACE(line);
+        auto source = from_memory(std::string(line) + "\n", InputFormat::hex);
+        ASSERT_TRUE(source);
+        EXPECT_EQ(source->info().time_base, base);
+    }
 }
 
 TEST(HexReader, EmptyAndCommentOnlyLogsHaveNoRemark) {

@@ -50,6 +50,16 @@ void add_line_options(CLI::App& cmd, OutputArgs& args) {
                    "Seconds after which a request counts as unanswered (default 1)");
 }
 
+TimeFormat time_format(const std::string& letters) {
+    if (letters == "ad") return TimeFormat::local_date;
+    if (letters == "u") return TimeFormat::utc;
+    if (letters == "ud") return TimeFormat::utc_date;
+    if (letters == "r") return TimeFormat::relative;
+    if (letters == "d") return TimeFormat::delta;
+    if (letters == "e") return TimeFormat::epoch;
+    return TimeFormat::local;
+}
+
 }  // namespace
 
 void add_output_options(CLI::App& cmd, OutputArgs& args) {
@@ -67,9 +77,12 @@ void add_output_options(CLI::App& cmd, OutputArgs& args) {
         ->type_name("FILE");
     add_line_options(cmd, args);
     cmd.add_option("-t,--time", args.time_format,
-                   "Time column: a = absolute (default), r = relative to the first frame, "
-                   "d = delta to the previous frame")
-        ->check(CLI::IsMember({"a", "r", "d"}));
+                   "Time column (text), as tshark's -t: a = local time of day, the date on a "
+                   "line of its own when it changes (default; TZ applies), ad = local date "
+                   "and time, u/ud = the same in UTC, r = seconds since the first frame, "
+                   "d = since the previous frame, e = seconds as in the CSV (epoch); times "
+                   "read without a zone show as read")
+        ->check(CLI::IsMember({"a", "ad", "u", "ud", "r", "d", "e"}));
     cmd.add_flag("--hex", args.hex, "Show the raw bytes of every frame (text output)");
     cmd.add_flag("--no-color", args.no_color,
                  "No colour (also off when NO_COLOR is set or stdout is not a terminal)");
@@ -167,9 +180,7 @@ std::optional<Decoding> prepare_decoding(const OutputArgs& args, int& exit_code)
         TextOptions text;
         text.hex = args.hex;
         text.color = !args.no_color && std::getenv("NO_COLOR") == nullptr && isatty(STDOUT_FILENO);
-        text.time_format = args.time_format == "r"   ? TimeFormat::relative
-                           : args.time_format == "d" ? TimeFormat::delta
-                                                     : TimeFormat::absolute;
+        text.time_format = time_format(args.time_format);
         d.sink = make_text_sink(stdout, text);
     }
     std::vector<std::unique_ptr<RecordSink>> sinks;

@@ -33,10 +33,11 @@ struct Chunk {
 
 // What a source knows about itself once its header (if any) has been read.
 struct SourceInfo {
-    std::string name;                  // file name for messages, "-" for stdin
-    std::string format;                // "capture", "raw", "hex", "pcap", "live"
-    std::optional<LineSettings> line;  // from the capture header, if it has one
-    bool timed = false;                // chunks carry times
+    std::string name;                     // file name for messages, "-" for stdin
+    std::string format;                   // "capture", "raw", "hex", "pcap", "live"
+    std::optional<LineSettings> line;     // from the capture header, if it has one
+    bool timed = false;                   // chunks carry times
+    TimeBase time_base = TimeBase::none;  // what those times are (util/time.hpp)
     // A chunk's time is its first byte's start (pcap, hex logs), not its last byte's end.
     bool chunk_time_is_start = false;
     // Hex logs: a chunk is a line someone wrote, a frame or a piece of one, so a line's

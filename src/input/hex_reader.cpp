@@ -39,6 +39,9 @@ bool is_ascii_space(char c) {
 bool is_digit(char c) {
     return c >= '0' && c <= '9';
 }
+bool is_letter(char c) {
+    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z');
+}
 
 // Separators between tokens besides white space: commas of C arrays, `**` emphasis and
 // backticks of markdown, table bars, quotes; and the full-width forms a CJK log uses.
@@ -214,17 +217,6 @@ void append_bytes(std::string_view s, std::size_t i, std::vector<std::uint8_t>& 
 
 // --- timestamps in the decoration ---------------------------------------------------
 
-// Days since 1970-01-01 of a proleptic Gregorian date (H. Hinnant, "chrono-compatible
-// low-level date algorithms"); no time zone or locale involved.
-std::int64_t days_from_civil(std::int64_t y, unsigned m, unsigned d) {
-    y -= m <= 2 ? 1 : 0;
-    const std::int64_t era = (y >= 0 ? y : y - 399) / 400;
-    const auto yoe = static_cast<unsigned>(y - era * 400);
-    const unsigned doy = (153 * (m > 2 ? m - 3 : m + 9) + 2) / 5 + d - 1;
-    const unsigned doe = yoe * 365 + yoe / 4 - yoe / 100 + doy;
-    return era * 146097 + static_cast<std::int64_t>(doe) - 719468;
-}
-
 bool digits_at(std::string_view s, std::size_t i, std::size_t n, unsigned& value) {
     if (i + n > s.size()) return false;
     value = 0;
@@ -267,22 +259,25 @@ bool time_of_day_at(std::string_view s, std::size_t i, Nanos& out, std::size_t& 
     return true;
 }
 
-// `Z`, `+08:00`, `+0800` right after the time: the offset east of UTC, in nanoseconds.
-Nanos utc_offset_at(std::string_view s, std::size_t i) {
-    if (i >= s.size() || (s[i] != '+' && s[i] != '-')) return 0;
+// `Z`, `+08:00`, `+0800` right after the time: the offset east of UTC, in nanoseconds;
+// nullopt when there is none.
+std::optional<Nanos> utc_offset_at(std::string_view s, std::size_t i) {
+    if (i < s.size() && s[i] == 'Z' && (i + 1 == s.size() || !is_letter(s[i + 1]))) return 0;
+    if (i >= s.size() || (s[i] != '+' && s[i] != '-')) return std::nullopt;
     unsigned h = 0;
     unsigned m = 0;
-    if (!digits_at(s, i + 1, 2, h)) return 0;
+    if (!digits_at(s, i + 1, 2, h)) return std::nullopt;
     std::size_t j = i + 3;
     if (j < s.size() && s[j] == ':') ++j;
-    if (!digits_at(s, j, 2, m) || h > 14 || m > 59) return 0;
-    if (j + 2 < s.size() && is_digit(s[j + 2])) return 0;
+    if (!digits_at(s, j, 2, m) || h > 14 || m > 59) return std::nullopt;
+    if (j + 2 < s.size() && is_digit(s[j + 2])) return std::nullopt;
     const Nanos offset = (static_cast<Nanos>(h) * 60 + m) * 60 * kNanosPerSecond;
     return s[i] == '-' ? -offset : offset;
 }
 
-// `YYYY-MM-DD HH:MM:SS[.frac]` (also `T` or `_` between, `/` in the date) as Unix time.
-bool date_time_at(std::string_view s, std::size_t i, Nanos& out) {
+// `YYYY-MM-DD HH:MM:SS[.frac]` (also `T` or `_` between, `/` in the date): Unix time
+// with a UTC offset after it, else the date and time as read, counted as if UTC.
+bool date_time_at(std::string_view s, std::size_t i, Nanos& out, bool& zoned) {
     unsigned y = 0;
     unsigned mo = 0;
     unsigned d = 0;
@@ -300,13 +295,15 @@ bool date_time_at(std::string_view s, std::size_t i, Nanos& out) {
     std::size_t end = 0;
     if (!time_of_day_at(s, i + 11, tod, end)) return false;
     const std::int64_t days = days_from_civil(y, mo, d);
-    out = days * 86400 * kNanosPerSecond + tod - utc_offset_at(s, end);
+    const std::optional<Nanos> offset = utc_offset_at(s, end);
+    zoned = offset.has_value();
+    out = days * kNanosPerDay + tod - offset.value_or(0);
     return true;
 }
 
 struct FoundTime {
     Nanos time = kNoTime;
-    bool date = false;  // false: seconds since midnight
+    TimeBase base = TimeBase::none;  // unix_time, wall_clock or time_of_day
 };
 
 FoundTime find_time(std::string_view s) {
@@ -314,16 +311,19 @@ FoundTime find_time(std::string_view s) {
     for (std::size_t i = 0; i < s.size(); ++i) {
         if (!is_digit(s[i]) || (i > 0 && is_digit(s[i - 1]))) continue;
         Nanos t = 0;
-        if (date_time_at(s, i, t)) return {t, true};
+        bool zoned = false;
+        if (date_time_at(s, i, t, zoned)) {
+            return {t, zoned ? TimeBase::unix_time : TimeBase::wall_clock};
+        }
         std::size_t end = 0;
-        if (!has_time(time_only.time) && time_of_day_at(s, i, t, end)) time_only.time = t;
+        if (!has_time(time_only.time) && time_of_day_at(s, i, t, end)) {
+            time_only = {t, TimeBase::time_of_day};
+        }
     }
     return time_only;
 }
 
 // --- the reader -----------------------------------------------------------------------
-
-constexpr Nanos kDay = 86400 * kNanosPerSecond;
 
 class HexReader final : public ChunkSource {
   public:
@@ -335,8 +335,8 @@ class HexReader final : public ChunkSource {
         info_.chunk_is_line = true;
     }
 
-    // Reads up to the first line with bytes so that info().timed is known before the
-    // pipeline copies it.
+    // Reads up to the first line with bytes so that info().timed and info().time_base
+    // are known before the pipeline copies them.
     Status open() {
         Result<bool> got = read_line(pending_);
         if (!got) return got.error();
@@ -408,22 +408,26 @@ class HexReader final : public ChunkSource {
             // frame by them, and its line is framed with the device's rules instead.
             out.whole_frame = is_whole_frame(out.bytes, standard_rules());
             ++(out.whole_frame ? whole_lines_ : stream_lines_);
-            if (has_time(out.time)) info_.timed = true;
+            if (has_time(out.time)) {
+                info_.timed = true;
+                // The first timestamp says what the times are.
+                if (info_.time_base == TimeBase::none) info_.time_base = found.base;
+            }
             return true;
         }
     }
 
     Nanos line_time(const FoundTime& found) {
-        if (!has_time(found.time) || found.date) return found.time;
+        if (!has_time(found.time) || found.base != TimeBase::time_of_day) return found.time;
         // A log of times without dates that runs past midnight goes on counting rather
         // than jumping back a day.
         Nanos t = found.time + day_offset_;
         // Never past kMaxTime: a long log flipping between evening and morning would
         // otherwise count days up to an overflow. Stuck there, its time goes back instead.
-        if (has_time(last_time_of_day_) && t < last_time_of_day_ - kDay / 2 &&
-            t <= kMaxTime - kDay) {
-            day_offset_ += kDay;
-            t += kDay;
+        if (has_time(last_time_of_day_) && t < last_time_of_day_ - kNanosPerDay / 2 &&
+            t <= kMaxTime - kNanosPerDay) {
+            day_offset_ += kNanosPerDay;
+            t += kNanosPerDay;
         }
         last_time_of_day_ = t;
         return t;
