@@ -31,6 +31,9 @@ int run_decode(const DecodeArgs& args) {
     }
     auto source = open_source(args.file, input_format);
     if (!source) return print_error(source.error()), 1;
+    if (Status bounds = check_time_bounds(*decoding, (*source)->info().time_base); !bounds) {
+        return print_error(bounds.error()), 2;
+    }
 
     const Status status = run_pipeline(**source, decoding->options, *decoding->sink);
     if (args.output.csv || args.output.values_csv || args.output.jsonl || args.output.stats) {

@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <tuple>
+#include <utility>
 
 #include "errors.hpp"
 #include "output/filter.hpp"
@@ -32,8 +33,10 @@ void add_filter_options(CLI::App& cmd, OutputArgs& args) {
         ->type_name("LIST")
         ->group("Filters");
     cmd.add_option("--from", args.from,
-                   "Only frames starting at or after this time: seconds as in the CSV time "
-                   "column, or +S after the first frame")
+                   "Only frames starting at or after this time: a time of day as -t a shows "
+                   "it (08:00:01.5; on the first frame's day, or the next if earlier), a date "
+                   "and time (2026-11-21 08:00:01), seconds as in the CSV time column, or +S "
+                   "after the first frame")
         ->type_name("TIME")
         ->group("Filters");
     cmd.add_option("--to", args.to, "Only frames starting at or before this time (as --from)")
@@ -146,15 +149,15 @@ std::optional<Decoding> prepare_decoding(const OutputArgs& args, int& exit_code)
         if (!r) return fail(Error{"--kind: " + r.error().message}, 2);
         filter.kinds = *r;
     }
-    for (const auto& [text, bound, relative, name] :
-         {std::tuple(&args.from, &filter.from, &filter.from_relative, "--from"),
-          std::tuple(&args.to, &filter.to, &filter.to_relative, "--to")}) {
+    for (const auto& [text, bound, name] : {std::tuple(&args.from, &filter.from, "--from"),
+                                            std::tuple(&args.to, &filter.to, "--to")}) {
         if (text->empty()) continue;
         auto r = parse_time_bound(*text);
         if (!r) return fail(Error{std::string(name) + ": " + r.error().message}, 2);
-        *bound = r->first;
-        *relative = r->second;
+        *bound = *r;
     }
+    d.from = filter.from;
+    d.to = filter.to;
 
     // A file or a pipe takes the output in large blocks (a terminal keeps its lines); live
     // runs flush after every record anyway. 64 KiB, as the sinks' own blocks: a larger
@@ -195,6 +198,16 @@ std::optional<Decoding> prepare_decoding(const OutputArgs& args, int& exit_code)
     d.sink = sinks.size() == 1 ? std::move(sinks.front()) : make_tee_sink(std::move(sinks));
     if (!filter.empty()) d.sink = make_filter_sink(std::move(filter), std::move(d.sink));
     return d;
+}
+
+Status check_time_bounds(const Decoding& decoding, TimeBase base) {
+    for (const auto& [bound, name] :
+         {std::pair(&decoding.from, "--from"), std::pair(&decoding.to, "--to")}) {
+        if (!*bound) continue;
+        Status status = check_time_bound(**bound, base);
+        if (!status) return Error{std::string(name) + ": " + status.error().message};
+    }
+    return ok_status();
 }
 
 Status pcap_status(const Decoding& decoding) {

@@ -9,6 +9,7 @@
 #include <string>
 
 #include "bus_options.hpp"
+#include "output/filter.hpp"
 #include "output/pcap_writer.hpp"
 #include "pipeline.hpp"
 
@@ -46,8 +47,15 @@ struct Decoding {
     PipelineOptions options;
     std::unique_ptr<RecordSink> sink;
     PcapSink* pcap = nullptr;  // inside `sink`, when --pcap was given
+    // --from and --to as given, to be checked against the input's times once it is open.
+    std::optional<TimeBound> from;
+    std::optional<TimeBound> to;
 };
 std::optional<Decoding> prepare_decoding(const OutputArgs& args, int& exit_code);
+
+// Once the input is open: whether --from and --to can be placed on its times (an Error
+// naming the option if not, for exit status 2).
+Status check_time_bounds(const Decoding& decoding, TimeBase base);
 
 // After the run: a --pcap file that could not be written is an error (printed here).
 Status pcap_status(const Decoding& decoding);

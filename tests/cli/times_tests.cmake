@@ -56,3 +56,35 @@ add_times_test(log_time_of_day_shows_as_read ${berlin} RC 0
 add_times_test(log_date_and_time_show_as_read ${berlin} RC 0
   ARGS decode captures/logs/serial_terminal.log --no-color -t u
   STDOUT_RE "\\)\n-- 2024-05-01\n    1 10:21:33.120000    1 ▶ ")
+
+# --from and --to take what the output shows: a time of day (local for absolute times, on
+# the first record's day or the next; as read for a log's times), a date and time,
+# seconds as in the CSV, +S after the first record. A time the input's times cannot
+# hold (a time of day for relative times, a date for times of day) is a bad value.
+add_times_test(from_to_local_time_of_day ${berlin} RC 0
+  ARGS decode tests/data/times_midnight.rtucap --csv --from 00:00:00 --to 00:59:59.9
+  STDOUT_RE "^frame,[^\n]*\n3,1795302000.500000,[^\n]*\n4,[^\n]*\n5,[^\n]*\n6,1795305599.520000,[^\n]*\n$")
+add_times_test(from_time_of_day_in_utc UTC RC 0
+  ARGS decode tests/data/times_midnight.rtucap --csv --from 23:59:59
+  STDOUT_RE "^frame,[^\n]*\n5,[^\n]*\n6,[^\n]*\n7,[^\n]*\n8,1795305600.520000,[^\n]*\n$")
+add_times_test(from_to_date_and_time ${berlin} RC 0
+  ARGS decode tests/data/times_midnight.rtucap --csv --from "2026-11-22 00:00:00" --to 2026-11-22T00:59:59.6
+  STDOUT_RE "^frame,[^\n]*\n3,[^\n]*\n4,[^\n]*\n5,[^\n]*\n6,[^\n]*\n$")
+add_times_test(from_epoch_seconds ${berlin} RC 0
+  ARGS decode tests/data/times_midnight.rtucap --csv --from 1795305600
+  STDOUT_RE "^frame,[^\n]*\n7,[^\n]*\n8,[^\n]*\n$")
+add_times_test(from_after_the_first_record ${berlin} RC 0
+  ARGS decode tests/data/times_midnight.rtucap --csv --from +3599.9
+  STDOUT_RE "^frame,[^\n]*\n5,[^\n]*\n6,[^\n]*\n7,[^\n]*\n8,[^\n]*\n$")
+add_times_test(from_a_logs_time_of_day ${berlin} RC 0
+  ARGS decode tests/data/time_of_day.log --no-color --from 23:00:00
+  STDOUT_RE "\\)\n    3 23:59:59.900000    1 ▶ [^\n]*\n-- day 2 [^\n]*\n    4 00:00:00.100000    1 ◀ [^\n]*\n-- 4 records")
+add_times_test(bad_time_of_day ${berlin} RC 2
+  ARGS decode tests/data/times_midnight.rtucap --from 24:00:00
+  STDERR_RE "^rtuscope: error: --from: bad time \"24:00:00\" \\(a time of day 08:00:01.5, a date and time 2026-11-21 08:00:01, seconds as in the CSV time column, or \\+S after the first frame\\)\n$")
+add_times_test(time_of_day_for_relative_times ${berlin} RC 2
+  ARGS decode captures/framing/bad_crc.rtucap --to 08:00:01
+  STDERR_RE "^rtuscope: error: --to: the input's times are relative seconds, with no clock: give seconds as in the CSV time column, or \\+S after the first frame\n$")
+add_times_test(date_for_times_of_day ${berlin} RC 2
+  ARGS decode tests/data/time_of_day.log --from "2024-05-01 09:00:00"
+  STDERR_RE "^rtuscope: error: --from: the input's times have no date: give a time of day \\(08:00:01\\)\n$")
