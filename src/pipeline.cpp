@@ -93,8 +93,8 @@ Status run_pipeline(ChunkSource& source, const PipelineOptions& options, RecordS
     });
     FramerOptions framer_options;
     framer_options.line = session.line;
-    framer_options.chunk_is_frame = session.source.chunk_is_frame;
     framer_options.chunk_time_is_start = session.source.chunk_time_is_start;
+    framer_options.chunk_is_line = session.source.chunk_is_line;
     framer_options.rules = rules;
     framer_options.expectation = &transactions;
     // Whether the input looks like RTU at these settings: said at the end, nothing dropped.

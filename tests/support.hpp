@@ -137,15 +137,15 @@ class Line {
     std::vector<Chunk> chunks_;
 };
 
-// Framer and pairing wired as in the pipeline; records collected in order.
+// Framer and pairing wired as in the pipeline; records collected in order. `options`:
+// the framer's, but for its expectation (the pairing).
 struct Harness {
-    explicit Harness(bool chunk_is_frame = false)
+    explicit Harness(FramerOptions options = {})
         : transactions({kNanosPerSecond, &standard_rules()},
                        [this](Record&& r) { records.push_back(std::move(r)); }),
           framer(
               [&] {
-                  FramerOptions o;
-                  o.chunk_is_frame = chunk_is_frame;
+                  FramerOptions o = options;
                   o.expectation = &transactions;
                   return o;
               }(),

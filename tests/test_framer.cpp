@@ -314,13 +314,13 @@ TEST(Framer, GapInsideAFrameIsNoted) {
     EXPECT_TRUE(r[0].notes.has(note_id::gap_inside));
 }
 
-TEST(Framer, HexLinesAreOneFrameEachRightOrWrong) {
+TEST(Framer, WholeFrameChunksAreOneFrameEachRightOrWrong) {
     Bytes bad = kReadAnswer;
     bad[5] ^= 0xFF;
-    std::vector<Chunk> lines{{kNoTime, "", kRead, 1, {}},
-                             {kNoTime, "", bad, 2, {}},
-                             {kNoTime, "", {0x01, 0x03, 0x00}, 3, {}}};
-    Harness h(true);
+    std::vector<Chunk> lines{{kNoTime, "", kRead, 1, {}, true},
+                             {kNoTime, "", bad, 2, {}, true},
+                             {kNoTime, "", {0x01, 0x03, 0x00}, 3, {}, true}};
+    Harness h;
     const auto& r = h.run(lines);
     ASSERT_EQ(r.size(), 3U);
     expect_frame(r[0], kRead, Kind::request);
@@ -328,6 +328,83 @@ TEST(Framer, HexLinesAreOneFrameEachRightOrWrong) {
     EXPECT_EQ(r[1].frame.crc.status, CrcStatus::bad);
     EXPECT_EQ(r[1].frame.source_line, 2);
     EXPECT_EQ(r[2].kind, Kind::invalid);
+}
+
+// A hex log's lines, as the hex reader gives them: stamped when they were seen (the
+// first byte's start), whole frames flagged.
+Harness hex_log_harness() {
+    FramerOptions options;
+    options.chunk_time_is_start = true;
+    options.chunk_is_line = true;
+    return Harness(options);
+}
+
+Chunk log_line(Nanos time, Bytes bytes, int line, bool whole = false) {
+    return {time, "", std::move(bytes), line, {}, whole};
+}
+
+TEST(Framer, AFrameOverSeveralLinesStartsAtItsFirstLinesTime) {
+    const Nanos t0 = 36'000 * kNanosPerSecond;
+    const std::vector<Chunk> lines{
+        log_line(t0, kRead, 1, true),
+        log_line(t0 + 20 * kMs, Bytes(kReadAnswer.begin(), kReadAnswer.begin() + 4), 2),
+        log_line(t0 + 21 * kMs, Bytes(kReadAnswer.begin() + 4, kReadAnswer.begin() + 5), 3),
+        log_line(t0 + 22 * kMs, Bytes(kReadAnswer.begin() + 5, kReadAnswer.end()), 4),
+        // A request and its answer on one line: placed back to back from the line's time.
+        log_line(t0 + kNanosPerSecond, concat({kRead, kReadAnswer}), 5)};
+    Harness h = hex_log_harness();
+    const auto& r = h.run(lines);
+    ASSERT_EQ(r.size(), 4U);
+    expect_frame(r[0], kRead, Kind::request);
+    EXPECT_EQ(r[0].frame.start, t0);  // as the log printed it, nothing taken off
+    expect_frame(r[1], kReadAnswer, Kind::response);
+    EXPECT_EQ(r[1].frame.start, t0 + 20 * kMs);
+    EXPECT_EQ(r[1].frame.source_line, 2);
+    EXPECT_EQ(r[1].request_number, 1U);
+    expect_frame(r[2], kRead, Kind::request);
+    EXPECT_EQ(r[2].frame.start, t0 + kNanosPerSecond);
+    expect_frame(r[3], kReadAnswer, Kind::response);
+    EXPECT_EQ(r[3].frame.start, t0 + kNanosPerSecond + 8 * Line().char_time());
+    EXPECT_EQ(r[3].request_number, 3U);
+}
+
+// Bytes that form no frame are cut at line starts: a frame with a wrong CRC over two
+// lines is one invalid frame, two lines with a wrong CRC each are two, and a line of
+// garbage is noise on its own, with or without times.
+TEST(Framer, BytesThatFormNoFrameAreCutAtLineStarts) {
+    Bytes bad_answer = kReadAnswer;
+    bad_answer.back() ^= 0x01;
+    Bytes bad_write = kWrite;
+    bad_write.back() ^= 0x01;
+    for (const bool timed : {false, true}) {
+        SCOPED_TRACE(timed ? "timed" : "untimed");
+        // Lines 20 ms apart, but for the second half of the answer, 2 ms after the first.
+        auto at = [&](int i) { return !timed ? kNoTime : i == 3 ? 42 * kMs : i * 20 * kMs; };
+        const std::vector<Chunk> lines{
+            log_line(at(1), kRead, 1, true),
+            log_line(at(2), Bytes(bad_answer.begin(), bad_answer.begin() + 4), 2),
+            log_line(at(3), Bytes(bad_answer.begin() + 4, bad_answer.end()), 3),
+            log_line(at(4), bad_write, 4),
+            log_line(at(5), bad_write, 5),
+            log_line(at(6), {0xAA, 0x00, 0xCC}, 6),
+            log_line(at(7), kRead, 7, true)};
+        Harness h = hex_log_harness();
+        const auto& r = h.run(lines);
+        ASSERT_EQ(r.size(), 6U);
+        expect_frame(r[0], kRead, Kind::request);
+        EXPECT_EQ(r[1].kind, Kind::invalid);
+        EXPECT_EQ(r[1].frame.bytes, bad_answer);
+        EXPECT_EQ(r[1].frame.crc.status, CrcStatus::bad);
+        EXPECT_EQ(r[2].kind, Kind::invalid);
+        EXPECT_EQ(r[2].frame.bytes, bad_write);
+        EXPECT_EQ(r[2].frame.source_line, 4);
+        EXPECT_EQ(r[3].kind, Kind::invalid);
+        EXPECT_EQ(r[3].frame.bytes, bad_write);
+        EXPECT_EQ(r[3].frame.source_line, 5);
+        EXPECT_EQ(r[4].kind, Kind::noise);
+        EXPECT_EQ(r[4].frame.bytes, (Bytes{0xAA, 0x00, 0xCC}));
+        expect_frame(r[5], kRead, Kind::request);
+    }
 }
 
 // Every byte of arbitrary input lands in exactly one record, whatever the chunking.

@@ -6,7 +6,9 @@
 #include <algorithm>
 #include <cstdio>
 #include <cstdlib>
+#include <ctime>
 #include <memory>
+#include <optional>
 #include <random>
 #include <string>
 #include <utility>
@@ -120,8 +122,8 @@ TEST(Jsonl, StringsAreEscaped) {
     EXPECT_EQ(out, "{\"bad \xEF\xBF\xBD\"");
 }
 
-// The text's time column: time of day for absolute Unix times, seconds since the first
-// frame (-t r), seconds since the previous frame (-t d).
+// The text's time column: time of day for absolute Unix times (here -t u), seconds since
+// the first frame (-t r), seconds since the previous frame (-t d).
 TEST(Text, TimeColumnAbsoluteRelativeAndDelta) {
     const std::string capture =
         "# rtuscope capture v1\n# serial 9600 8N1\n"
@@ -142,12 +144,144 @@ TEST(Text, TimeColumnAbsoluteRelativeAndDelta) {
         return times;
     };
     // 8 bytes at 9600 baud take 8.333 ms: the frames start at .001667, .241667, .291667.
-    EXPECT_EQ(time_column(TimeFormat::absolute),
+    EXPECT_EQ(time_column(TimeFormat::utc),
               (std::vector<std::string>{"08:00:00.001667", "08:00:00.241667", "08:00:00.291667"}));
     EXPECT_EQ(time_column(TimeFormat::relative),
               (std::vector<std::string>{"       0.000000", "       0.240000", "       0.290000"}));
     EXPECT_EQ(time_column(TimeFormat::delta),
               (std::vector<std::string>{"       0.000000", "       0.240000", "       0.050000"}));
+}
+
+// TZ for one test: the text shows local time.
+class ScopedZone {
+  public:
+    explicit ScopedZone(const char* zone) {
+        if (const char* old = std::getenv("TZ")) old_ = old;
+        ::setenv("TZ", zone, 1);
+        ::tzset();
+    }
+    ~ScopedZone() {
+        if (old_) {
+            ::setenv("TZ", old_->c_str(), 1);
+        } else {
+            ::unsetenv("TZ");
+        }
+        ::tzset();
+    }
+    ScopedZone(const ScopedZone&) = delete;
+    ScopedZone& operator=(const ScopedZone&) = delete;
+
+  private:
+    std::optional<std::string> old_;
+};
+
+// Central European time and its summer time, as a POSIX rule: no tzdata needed.
+constexpr const char* kBerlin = "CET-1CEST,M3.5.0,M10.5.0/3";
+
+// The text's lines after the header and before the closing summary: date lines and
+// records, each record cut after its time column and the slave.
+std::vector<std::string> time_lines(const std::string& input, TimeFormat format) {
+    const std::string text = run_to_text(input, nullptr, [&](std::FILE* out) {
+        return make_text_sink(out, TextOptions{false, false, format});
+    });
+    std::vector<std::string> lines;
+    for (std::size_t at = text.find('\n') + 1; at < text.size();) {
+        const auto nl = text.find('\n', at);
+        std::string line = text.substr(at, nl - at);
+        at = nl + 1;
+        if (line.starts_with("-- ") && line.find("records,") != std::string::npos) break;
+        if (!line.starts_with("--")) line = line.substr(0, line.find("  ", 8) + 5);
+        lines.push_back(line);
+    }
+    return lines;
+}
+
+// Requests around midnight in Berlin (23:00 UTC) and in UTC, 2026-11-21; each line's time
+// is its last byte's end, 8.333 ms after the frame's start.
+const char* const kAroundMidnight =
+    "# rtuscope capture v1\n# serial 9600 8N1\n"
+    "1795301999.508333334 01 03 00 00 00 02 C4 0B\n"
+    "1795302000.508333334 01 03 00 00 00 02 C4 0B\n"
+    "1795305599.508333334 01 03 00 00 00 02 C4 0B\n"
+    "1795305600.508333334 01 03 00 00 00 02 C4 0B\n";
+
+TEST(Text, LocalTimeWithTheDateWhenItChanges) {
+    const ScopedZone zone(kBerlin);
+    EXPECT_EQ(
+        time_lines(kAroundMidnight, TimeFormat::local),
+        (std::vector<std::string>{"-- 2026-11-21 CET (UTC+01:00)", "    1 23:59:59.500000    1",
+                                  "-- 2026-11-22 CET (UTC+01:00)", "    2 00:00:00.500000    1",
+                                  "    3 00:59:59.500000    1", "    4 01:00:00.500000    1"}));
+    EXPECT_EQ(
+        time_lines(kAroundMidnight, TimeFormat::local_date),
+        (std::vector<std::string>{
+            "    1 2026-11-21 23:59:59.500000    1", "    2 2026-11-22 00:00:00.500000    1",
+            "    3 2026-11-22 00:59:59.500000    1", "    4 2026-11-22 01:00:00.500000    1"}));
+}
+
+TEST(Text, UtcTimeWithTheDateWhenItChanges) {
+    const ScopedZone zone(kBerlin);  // not used
+    EXPECT_EQ(time_lines(kAroundMidnight, TimeFormat::utc),
+              (std::vector<std::string>{"-- 2026-11-21 UTC", "    1 22:59:59.500000    1",
+                                        "    2 23:00:00.500000    1", "    3 23:59:59.500000    1",
+                                        "-- 2026-11-22 UTC", "    4 00:00:00.500000    1"}));
+    EXPECT_EQ(
+        time_lines(kAroundMidnight, TimeFormat::utc_date),
+        (std::vector<std::string>{
+            "    1 2026-11-21 22:59:59.500000    1", "    2 2026-11-21 23:00:00.500000    1",
+            "    3 2026-11-21 23:59:59.500000    1", "    4 2026-11-22 00:00:00.500000    1"}));
+    EXPECT_EQ(
+        time_lines(kAroundMidnight, TimeFormat::epoch),
+        (std::vector<std::string>{"    1 1795301999.500000    1", "    2 1795302000.500000    1",
+                                  "    3 1795305599.500000    1", "    4 1795305600.500000    1"}));
+}
+
+// Summer time ends at 01:00 UTC on 2026-10-25: the hour from 02:00 comes twice, told
+// apart by the zone line.
+TEST(Text, ANewZoneLineWhenSummerTimeEnds) {
+    const ScopedZone zone(kBerlin);
+    const std::string capture =
+        "# rtuscope capture v1\n# serial 9600 8N1\n"
+        "1792889999.508333334 01 03 00 00 00 02 C4 0B\n"
+        "1792890000.508333334 01 03 00 00 00 02 C4 0B\n";
+    EXPECT_EQ(
+        time_lines(capture, TimeFormat::local),
+        (std::vector<std::string>{"-- 2026-10-25 CEST (UTC+02:00)", "    1 02:59:59.500000    1",
+                                  "-- 2026-10-25 CET (UTC+01:00)", "    2 02:00:00.500000    1"}));
+}
+
+// A log's date and time without a zone, and a log's times of day, show as read in every
+// zone and in UTC alike; -t e gives the CSV's seconds.
+TEST(Text, TimesReadWithoutAZoneShowAsRead) {
+    const ScopedZone zone(kBerlin);
+    const std::string dated =
+        "[2024-05-01 23:59:59.120] 01 03 00 00 00 02 C4 0B\n"
+        "[2024-05-02 00:00:00.250] 01 03 00 00 00 02 C4 0B\n";
+    const std::vector<std::string> as_read = {"-- 2024-05-01", "    1 23:59:59.120000    1",
+                                              "-- 2024-05-02", "    2 00:00:00.250000    1"};
+    EXPECT_EQ(time_lines(dated, TimeFormat::local), as_read);
+    EXPECT_EQ(time_lines(dated, TimeFormat::utc), as_read);
+    EXPECT_EQ(time_lines(dated, TimeFormat::local_date),
+              (std::vector<std::string>{"    1 2024-05-01 23:59:59.120000    1",
+                                        "    2 2024-05-02 00:00:00.250000    1"}));
+    EXPECT_EQ(
+        time_lines(dated, TimeFormat::epoch),
+        (std::vector<std::string>{"    1 1714607999.120000    1", "    2 1714608000.250000    1"}));
+
+    const std::string times_of_day =
+        "[09:00:00.480] 01 03 00 00 00 02 C4 0B\n"
+        "[23:59:59.900] 01 03 00 00 00 02 C4 0B\n"
+        "[00:00:00.100] 01 03 00 00 00 02 C4 0B\n";
+    const std::vector<std::string> day_lines = {
+        "    1 09:00:00.480000    1", "    2 23:59:59.900000    1",
+        "-- day 2 (the log's times have no date)", "    3 00:00:00.100000    1"};
+    for (const TimeFormat format :
+         {TimeFormat::local, TimeFormat::local_date, TimeFormat::utc, TimeFormat::utc_date}) {
+        EXPECT_EQ(time_lines(times_of_day, format), day_lines);
+    }
+    EXPECT_EQ(time_lines(times_of_day, TimeFormat::epoch),
+              (std::vector<std::string>{"    1    32400.480000    1", "    2    86399.900000    1",
+                                        "    3    86400.100000    1"}));
 }
 
 // The latency is written without floating point; it must read exactly as fmt's rounding
@@ -203,7 +337,7 @@ TEST(Outputs, LatencyReadsAsFmtRoundsTheMilliseconds) {
         csv_latencies.push_back(csv.substr(field, csv.find(',', field) - field));
     }
     const std::string text = written([](std::FILE* out) {
-        return make_text_sink(out, TextOptions{false, false, TimeFormat::absolute});
+        return make_text_sink(out, TextOptions{false, false, TimeFormat::local});
     });
     std::vector<std::string> text_latencies;
     for (std::size_t at = text.find(" ms after #"); at != std::string::npos;
@@ -483,8 +617,8 @@ TEST(Filter, ParsesListsKindsAndTimes) {
               "invalid, noise, flagged)");
     const auto relative = parse_time_bound("+2.5");
     ASSERT_TRUE(relative);
-    EXPECT_EQ(relative->first, 2'500'000'000);
-    EXPECT_TRUE(relative->second);
+    EXPECT_EQ(relative->nanos, 2'500'000'000);
+    EXPECT_EQ(relative->kind, TimeBound::Kind::after_first);
     EXPECT_FALSE(parse_time_bound("yesterday"));
 }
 
@@ -513,7 +647,7 @@ TEST(Filter, KeepsOnlyMatchingRecords) {
     problems.kinds = {"exception", "invalid"};
     EXPECT_EQ(rows(decode_with(problems)), (std::vector<std::string>{"3", "4"}));
     RecordFilter untimed;
-    untimed.from = 0;  // hex logs have no times: nothing can be in a time range
+    untimed.from = TimeBound{};  // hex logs have no times: nothing can be in a time range
     EXPECT_TRUE(rows(decode_with(untimed)).empty());
 }
 
@@ -524,14 +658,119 @@ TEST(Filter, TimeRangeRelativeToTheFirstFrame) {
         "11.000 01 03 00 00 00 01 84 0A\n"
         "12.000 01 03 00 00 00 01 84 0A\n";
     RecordFilter middle;
-    middle.from = 900'000'000;
-    middle.from_relative = true;
-    middle.to = 11'500'000'000;  // absolute, in the capture's timebase
+    middle.from = TimeBound{TimeBound::Kind::after_first, 900'000'000, {}};
+    middle.to = TimeBound{TimeBound::Kind::seconds, 11'500'000'000, {}};  // the capture's
     const std::string csv = run_to_text(capture, nullptr, [&](std::FILE* out) {
         return make_filter_sink(middle, make_csv_sink(out));
     });
     EXPECT_EQ(csv.substr(csv.find('\n') + 1, 2), "2,");
     EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 2);
+}
+
+// --from/--to: what the output shows, as given.
+TEST(Filter, ParsesEveryFormOfATime) {
+    struct Case {
+        const char* text;
+        TimeBound::Kind kind;
+        Nanos nanos;
+        CivilDate date;
+    };
+    using K = TimeBound::Kind;
+    const std::vector<Case> good = {
+        {"08:00:01", K::time_of_day, 28'801'000'000'000, {}},
+        {"23:59:59.123456789", K::time_of_day, 86'399'123'456'789, {}},
+        {"2026-11-21 08:00:01", K::date_time, 28'801'000'000'000, {2026, 11, 21}},
+        {"2026-11-21T08:00:01.25", K::date_time, 28'801'250'000'000, {2026, 11, 21}},
+        {"2024-02-29 00:00:00", K::date_time, 0, {2024, 2, 29}},
+        {"1795305600.5", K::seconds, 1'795'305'600'500'000'000, {}},
+        {"12", K::seconds, 12'000'000'000, {}},
+        {"+2.5", K::after_first, 2'500'000'000, {}},
+    };
+    for (const Case& c : good) {
+        SCOPED_TRACE(c.text);
+        const auto bound = parse_time_bound(c.text);
+        ASSERT_TRUE(bound) << bound.error().message;
+        EXPECT_EQ(bound->kind, c.kind);
+        EXPECT_EQ(bound->nanos, c.nanos);
+        EXPECT_EQ(bound->date.year, c.date.year);
+        EXPECT_EQ(bound->date.month, c.date.month);
+        EXPECT_EQ(bound->date.day, c.date.day);
+    }
+    for (const char* bad :
+         {"24:00:00", "8:00:01", "08:00", "08:60:00", "08:00:01.", "08:00:01.1234567890",
+          "08:00:01 ", "2026-02-29 08:00:00", "2026-11-21 08:00:01Z", "2026-11-21_08:00:01",
+          "1899-12-31 23:00:00", "-5", "1e99", "+", "", "2026-11-21"}) {
+        EXPECT_FALSE(parse_time_bound(bad)) << bad;
+    }
+    EXPECT_EQ(parse_time_bound("25:00:00").error().message,
+              "bad time \"25:00:00\" (a time of day 08:00:01.5, a date and time 2026-11-21 "
+              "08:00:01, seconds as in the CSV time column, or +S after the first frame)");
+}
+
+// A time of day is on the first record's day, or the next day if it is earlier than the
+// first record's time of day; local time for absolute times, as read for times read
+// without a zone.
+TEST(Filter, PlacesTimesOfDayAndDatesOnTheInputsTimes) {
+    auto place = [](const char* text, TimeBase base, Nanos first) {
+        return parse_time_bound(text)->place(base, first);
+    };
+    const Nanos s = kNanosPerSecond;
+    // 2026-11-21 22:59:59.5 UTC, 23:59:59.5 in Berlin.
+    const Nanos first = 1'795'301'999 * s + s / 2;
+    {
+        const ScopedZone zone(kBerlin);
+        EXPECT_EQ(place("00:00:00", TimeBase::unix_time, first), 1'795'302'000 * s);
+        EXPECT_EQ(place("23:59:59.6", TimeBase::unix_time, first), first + s / 10);
+        EXPECT_EQ(place("23:59:59.5", TimeBase::unix_time, first), first);  // same day
+        EXPECT_EQ(place("2026-11-22 00:00:00", TimeBase::unix_time, first), 1'795'302'000 * s);
+        // Summer time: 2026-07-01 12:00 in Berlin is 10:00 UTC.
+        EXPECT_EQ(place("2026-07-01 12:00:00", TimeBase::unix_time, first),
+                  (days_from_civil(2026, 7, 1) * 86'400 + 10 * 3600) * s);
+    }
+    {
+        const ScopedZone zone("UTC");
+        EXPECT_EQ(place("00:00:00", TimeBase::unix_time, first), 1'795'305'600 * s);
+        EXPECT_EQ(place("23:00:00", TimeBase::unix_time, first), 1'795'302'000 * s);
+    }
+    // A log's date and time, as read whatever the zone.
+    const ScopedZone zone(kBerlin);
+    const Nanos day = days_from_civil(2024, 5, 1) * kNanosPerDay;
+    const Nanos log_first = day + 37'293 * s + 120'000'000;  // 10:21:33.120
+    EXPECT_EQ(place("10:21:34", TimeBase::wall_clock, log_first), day + 37'294 * s);
+    EXPECT_EQ(place("09:00:00", TimeBase::wall_clock, log_first), day + kNanosPerDay + 32'400 * s);
+    EXPECT_EQ(place("2024-05-01 10:00:00", TimeBase::wall_clock, log_first), day + 36'000 * s);
+    // A log's times of day: its first day, or the next.
+    EXPECT_EQ(place("09:00:01", TimeBase::time_of_day, 32'400 * s), 32'401 * s);
+    EXPECT_EQ(place("08:00:00", TimeBase::time_of_day, 32'400 * s), kNanosPerDay + 28'800 * s);
+    // Seconds and +S are the same on any times.
+    EXPECT_EQ(place("12.5", TimeBase::relative, s), 12'500'000'000);
+    EXPECT_EQ(place("+2", TimeBase::relative, s), 3 * s);
+    // No clock, no date: not placed, and the command line says why.
+    EXPECT_FALSE(place("08:00:00", TimeBase::relative, s));
+    EXPECT_FALSE(place("2024-05-01 10:00:00", TimeBase::time_of_day, s));
+    EXPECT_EQ(check_time_bound(*parse_time_bound("08:00:00"), TimeBase::relative).error().message,
+              "the input's times are relative seconds, with no clock: give seconds as in the "
+              "CSV time column, or +S after the first frame");
+    EXPECT_EQ(check_time_bound(*parse_time_bound("2024-05-01 10:00:00"), TimeBase::time_of_day)
+                  .error()
+                  .message,
+              "the input's times have no date: give a time of day (08:00:01)");
+    EXPECT_TRUE(check_time_bound(*parse_time_bound("08:00:00"), TimeBase::none));
+}
+
+TEST(Filter, TimeOfDayRangeInTheLocalZone) {
+    const ScopedZone zone(kBerlin);
+    RecordFilter after_midnight;  // in Berlin: the three requests from 00:00 to 01:00:00.6
+    after_midnight.from = *parse_time_bound("00:00:00");
+    after_midnight.to = *parse_time_bound("01:00:00.6");
+    const std::string csv = run_to_text(kAroundMidnight, nullptr, [&](std::FILE* out) {
+        return make_filter_sink(after_midnight, make_csv_sink(out));
+    });
+    std::vector<std::string> numbers;
+    for (std::size_t at = csv.find('\n') + 1; at < csv.size(); at = csv.find('\n', at) + 1) {
+        numbers.push_back(csv.substr(at, csv.find(',', at) - at));
+    }
+    EXPECT_EQ(numbers, (std::vector<std::string>{"2", "3", "4"}));
 }
 
 }  // namespace

@@ -285,8 +285,10 @@ Drained read_memory(const std::string& content) {
     if (!source.ok()) return {};
     EXPECT_EQ((*source)->info().format, "pcap");
     EXPECT_TRUE((*source)->info().timed);
-    EXPECT_TRUE((*source)->info().chunk_is_frame);
-    return drain(**source);
+    EXPECT_TRUE((*source)->info().chunk_time_is_start);
+    Drained d = drain(**source);
+    for (const Chunk& c : d.chunks) EXPECT_TRUE(c.whole_frame);
+    return d;
 }
 
 const Bytes kRequest = with_crc({0x01, 0x03, 0x00, 0x00, 0x00, 0x02});
@@ -611,6 +613,33 @@ TEST(PcapReader, PcapngWithMicrosecondTimestamps) {
     EXPECT_EQ(d.chunks[0].time, kT0 + 1'000);
     EXPECT_EQ(d.chunks[1].time, kT0 + 25'000'000);
     EXPECT_EQ(d.chunks[1].bytes, kAnswer);
+}
+
+// A pcap's times are Unix time, unless they are too small for it (a pcap written from a
+// capture with relative times): the first packet tells, read ahead when the file opens.
+// An error in it comes with the first chunk asked for, as any packet's would.
+TEST(PcapReader, TheFirstPacketTellsWhatTheTimesAre) {
+    auto absolute = pcap_source_from_memory(pcap_file(147, {{kT0, kRequest}}), "a.pcap");
+    ASSERT_TRUE(absolute.ok());
+    EXPECT_EQ((*absolute)->info().time_base, TimeBase::unix_time);
+    EXPECT_EQ(drain(**absolute).chunks.size(), 1U);
+    auto relative = pcap_source_from_memory(
+        pcap_file(147, {{1'000'000, kRequest}, {2'000'000, kAnswer}}), "r.pcap");
+    ASSERT_TRUE(relative.ok());
+    EXPECT_EQ((*relative)->info().time_base, TimeBase::relative);
+    const Drained d = drain(**relative);
+    ASSERT_EQ(d.chunks.size(), 2U);
+    EXPECT_EQ(d.chunks[0].bytes, kRequest);
+    EXPECT_EQ(d.chunks[0].time, 1'000'000);
+    EXPECT_EQ(d.chunks[1].bytes, kAnswer);
+    const Bytes broken = {0, 12, 0, 40, 'm', 'b'};
+    auto bad = pcap_source_from_memory(pcap_file(252, {{kT0, broken}}), "b.pcap");
+    ASSERT_TRUE(bad.ok());
+    const Drained e = drain(**bad);
+    EXPECT_TRUE(e.chunks.empty());
+    ASSERT_TRUE(e.error);
+    EXPECT_EQ(e.error->to_string(),
+              "b.pcap: packet 1: exported-PDU tag 12 runs past the packet end");
 }
 
 TEST(PcapReader, OtherLinkTypesAreRefused) {

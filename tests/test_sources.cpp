@@ -90,6 +90,20 @@ TEST(SourcesInputFormat, ParsesNamesAndRejectsOthers) {
 
 // --- capture format ---------------------------------------------------------------------
 
+// A capture's times are Unix time from 2001 on, relative seconds below.
+TEST(CaptureReader, TheFirstTimestampTellsWhatTheTimesAre) {
+    for (const auto& [first, base] :
+         {std::pair("1763798400.022360", TimeBase::unix_time),
+          std::pair("0.022360", TimeBase::relative), std::pair("bad", TimeBase::relative)}) {
+        SCOPED_TRACE(first);
+        auto source = from_memory(
+            capture(std::string("# serial 9600 8N1\n") + first + " 01 03 00 00 00 02 C4 0B\n"),
+            InputFormat::capture);
+        ASSERT_TRUE(source);
+        EXPECT_EQ(source->info().time_base, base);
+    }
+}
+
 TEST(CaptureReader, ReadsHeaderAndDataLines) {
     auto source = from_memory(capture("# serial 19200 8E1\n"
                                       "# a comment\n"
@@ -102,7 +116,8 @@ TEST(CaptureReader, ReadsHeaderAndDataLines) {
     EXPECT_EQ(info.name, "cap.rtucap");
     EXPECT_EQ(info.format, "capture");
     EXPECT_TRUE(info.timed);
-    EXPECT_FALSE(info.chunk_is_frame);
+    EXPECT_EQ(info.time_base, TimeBase::unix_time);
+    EXPECT_FALSE(info.chunk_time_is_start);
     ASSERT_TRUE(info.line.has_value());
     EXPECT_EQ(info.line->baud, 19200U);
     EXPECT_EQ(info.line->data_bits, 8);
@@ -377,7 +392,8 @@ TEST(RawReader, DeliversChunksOfAtMost4096BytesWithoutTime) {
     EXPECT_EQ(source->info().format, "raw");
     EXPECT_EQ(source->info().name, "dump.bin");
     EXPECT_FALSE(source->info().timed);
-    EXPECT_FALSE(source->info().chunk_is_frame);
+    EXPECT_EQ(source->info().time_base, TimeBase::none);
+    EXPECT_FALSE(source->info().chunk_is_line);
     EXPECT_FALSE(source->info().line.has_value());
     Drained d = drain(*source);
     ASSERT_FALSE(d.error);
@@ -466,7 +482,7 @@ TEST(HexReader, ReadsManualAndTerminalLines) {
         auto source = from_memory(std::string(c.line) + "\n", InputFormat::hex, "log.txt");
         ASSERT_TRUE(source);
         EXPECT_EQ(source->info().format, "hex");
-        EXPECT_TRUE(source->info().chunk_is_frame);
+        EXPECT_TRUE(source->info().chunk_time_is_start);
         EXPECT_EQ(source->info().timed, has_time(c.time));
         Drained d = drain(*source);
         ASSERT_FALSE(d.error);
@@ -481,21 +497,68 @@ TEST(HexReader, ReadsManualAndTerminalLines) {
         EXPECT_EQ(d.chunks[0].time, c.time);
         EXPECT_EQ(d.chunks[0].source_line, 1);
         EXPECT_EQ(d.chunks[0].channel, "");
-        EXPECT_TRUE(source->remarks().empty());
+        // Every line of more than 3 bytes here is one frame with its right CRC; the
+        // 3-byte ones are no frame, and go to the framer (and into the closing note).
+        const bool whole = c.bytes.size() > 3;
+        EXPECT_EQ(d.chunks[0].whole_frame, whole);
+        EXPECT_EQ(
+            source->remarks(),
+            whole ? std::vector<std::string>{}
+                  : std::vector<std::string>{"no line held one frame, 1 line was framed as a byte "
+                                             "stream (not one frame by length and CRC)"});
     }
 }
 
 TEST(HexReader, NeverReadsATimestampAsBytes) {
-    // "10:21:33" must not become 10 21 33; with only two real bytes the line is no frame.
+    // "10:21:33" must not become 10 21 33: the lines hold two, two and three bytes.
     Drained d = read_all(
         "10:21:33 01 02\n"
         "10:21:33:01 03 04\n"
         "2024-05-01 10:21:33 01 03 04\n",
         InputFormat::hex);
     ASSERT_FALSE(d.error);
-    ASSERT_EQ(d.chunks.size(), 1U);
-    EXPECT_EQ(d.chunks[0].source_line, 3);
-    EXPECT_EQ(d.chunks[0].bytes, (Bytes{0x01, 0x03, 0x04}));
+    ASSERT_EQ(d.chunks.size(), 3U);
+    EXPECT_EQ(d.chunks[0].bytes, (Bytes{0x01, 0x02}));
+    EXPECT_EQ(d.chunks[1].bytes, (Bytes{0x03, 0x04}));
+    EXPECT_EQ(d.chunks[2].bytes, (Bytes{0x01, 0x03, 0x04}));
+    EXPECT_EQ(d.chunks[2].source_line, 3);
+}
+
+// A terminal that logs each read() splits frames over lines, and may put several on one:
+// a line that is one frame (by length and CRC) is taken whole, any other goes to the
+// framer, and the closing note counts both. A line of one or two bytes is one read()
+// when it has a timestamp; without one it is skipped as before (a manual's "step 2").
+TEST(HexReader, MarksTheLinesThatAreOneFrameAndCountsBoth) {
+    auto source = from_memory(
+        "[10:00:00.000] TX: 01 03 00 00 00 02 C4 0B\n"          // one frame
+        "[10:00:00.020] RX: 01 03 04 08\n"                      // a piece
+        "[10:00:00.021] RX: 9D\n"                               // one byte, timed
+        "[10:00:00.022] RX: 00 96 E9 D3\n"                      // a piece
+        "01 03 00 00 00 02 C4 0B 01 03 04 08 9D 00 96 E9 D3\n"  // two frames
+        "01 03 04 08 9D 00 96 E9 D4\n"                          // a wrong CRC
+        "01 02\n"                                               // skipped
+        "01 08 00 00 12 34 ED 7C\n"                             // FC08/00, CRC
+        "[10:00:01.000] 01 03 00 00 00 02 C4 0B\n",             // one frame
+        InputFormat::hex, "log.txt");
+    ASSERT_TRUE(source);
+    EXPECT_TRUE(source->info().chunk_time_is_start);
+    EXPECT_TRUE(source->info().chunk_is_line);
+    Drained d = drain(*source);
+    ASSERT_FALSE(d.error);
+    std::vector<bool> whole;
+    std::vector<int> lines;
+    for (const Chunk& c : d.chunks) {
+        whole.push_back(c.whole_frame);
+        lines.push_back(c.source_line);
+    }
+    EXPECT_EQ(whole, (std::vector<bool>{true, false, false, false, false, false, true, true}));
+    EXPECT_EQ(lines, (std::vector<int>{1, 2, 3, 4, 5, 6, 8, 9}));
+    EXPECT_EQ(d.chunks[2].bytes, (Bytes{0x9D}));
+    EXPECT_EQ(d.chunks[2].time, 36000021000000);
+    EXPECT_EQ(source->remarks(),
+              (std::vector<std::string>{"3 lines held one frame each, 5 lines were framed as a "
+                                        "byte stream (not one frame by length and CRC)",
+                                        "skipped 1 line with no frame: 7"}));
 }
 
 TEST(HexReader, SkippedLinesAreSummarisedInOneRemark) {
@@ -534,6 +597,26 @@ TEST(HexReader, TimedWhenAnyLineHasATimeAndTimeOfDayRollsOverMidnight) {
     EXPECT_EQ(d.chunks[0].time, 86399900000000);
     EXPECT_EQ(d.chunks[1].time, 86400100000000);
     EXPECT_EQ(d.chunks[1].bytes.back(), 0x9B);  // CR stripped
+}
+
+// What a log's times are, from its first timestamp: a date with a UTC offset is Unix
+// time, a date without one is read as printed (counted as if UTC), a time of day alone is
+// a time of day; no timestamp, no times.
+TEST(HexReader, SaysWhatItsTimesAre) {
+    const std::vector<std::pair<const char*, TimeBase>> cases = {
+        {"2024-05-01T10:21:33Z 01 03 00 00 00 02 C4 0B", TimeBase::unix_time},
+        {"2024-05-01 18:21:33+08:00 01 03 00 00 00 02 C4 0B", TimeBase::unix_time},
+        {"[2024-05-01 10:21:33.120] 01 03 00 00 00 02 C4 0B", TimeBase::wall_clock},
+        {"2024-05-01 10:21:33 Zone 01 03 00 00 00 02 C4 0B", TimeBase::wall_clock},
+        {"[10:21:33.120] 01 03 00 00 00 02 C4 0B", TimeBase::time_of_day},
+        {"01 03 00 00 00 02 C4 0B", TimeBase::none},
+    };
+    for (const auto& [line, base] : cases) {
+        SCOPED_TRACE(line);
+        auto source = from_memory(std::string(line) + "\n", InputFormat::hex);
+        ASSERT_TRUE(source);
+        EXPECT_EQ(source->info().time_base, base);
+    }
 }
 
 TEST(HexReader, EmptyAndCommentOnlyLogsHaveNoRemark) {
@@ -728,8 +811,8 @@ TEST(SourcesOpen, GarbageNeverCrashesAReader) {
             if (!source) continue;
             Drained d = drain(**source);
             for (const Chunk& c : d.chunks) {
-                if ((*source)->info().chunk_is_frame) {
-                    ASSERT_GE(c.bytes.size(), 3U);
+                if (c.whole_frame) {
+                    ASSERT_GE(c.bytes.size(), kMinAdu);
                 }
                 ASSERT_FALSE(c.bytes.empty());
             }

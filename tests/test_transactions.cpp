@@ -166,7 +166,7 @@ struct Emitted {
     std::vector<Record> records;
     std::uint64_t held_most = 0;
 };
-Emitted run_counting_held(const std::vector<Chunk>& chunks, bool chunk_is_frame = false) {
+Emitted run_counting_held(const std::vector<Chunk>& chunks) {
     Emitted out;
     std::uint64_t pushed = 0;
     Transactions transactions({kNanosPerSecond, &standard_rules()}, [&](Record&& record) {
@@ -174,7 +174,6 @@ Emitted run_counting_held(const std::vector<Chunk>& chunks, bool chunk_is_frame 
         out.records.push_back(std::move(record));
     });
     FramerOptions options;
-    options.chunk_is_frame = chunk_is_frame;
     options.expectation = &transactions;
     Framer framer(options, [&](Frame& f) {
         ++pushed;
@@ -213,7 +212,8 @@ TEST(Transactions, NoAnswerWithinTheMostFramesHeldBehindARequest) {
 }
 
 TEST(Transactions, NoAnswerWithinTheMostBytesHeldBehindARequest) {
-    // A hex log (a frame a line, no times): a request, then lines of 300,000 bytes.
+    // Frames that stand alone (as a pcap's packets), no times: a request, then frames of
+    // 300,000 bytes.
     std::vector<Chunk> lines(1);
     lines[0].bytes = kRead;
     for (int i = 0; i < 6; ++i) {
@@ -223,7 +223,8 @@ TEST(Transactions, NoAnswerWithinTheMostBytesHeldBehindARequest) {
         big.bytes[1] = 0x03;
         lines.push_back(std::move(big));
     }
-    const Emitted e = run_counting_held(lines, true);
+    for (Chunk& line : lines) line.whole_frame = true;
+    const Emitted e = run_counting_held(lines);
     const std::vector<Record>& r = e.records;
     ASSERT_EQ(r.size(), 7U);
     ASSERT_TRUE(r[0].notes.has(note_id::no_answer));
@@ -371,16 +372,18 @@ TEST(Transactions, ManyRecordsHeldBehindAnAwaitedRequestKeepOrderAndContents) {
 namespace rtuscope {
 namespace {
 
-// One frame a chunk, as a hex log line or a pcap packet delivers it: an answer cut short
+// One frame a chunk, as a pcap packet delivers it: an answer cut short
 // has no shape to tell its direction, but it stands where the awaited answer would, so it
 // is that answer, broken, and the request is answered (by a broken answer), not left
 // without one.
 TEST(Transactions, ACutShortAnswerInItsOwnLineAnswersTheRequestBeforeIt) {
-    Harness h(true);
+    Harness h;
     Chunk request;
     request.bytes = kRead;
+    request.whole_frame = true;
     Chunk cut;
     cut.bytes = {0x01, 0x03, 0x04, 0x17};
+    cut.whole_frame = true;
     const auto& r = h.run({request, cut});
     ASSERT_EQ(r.size(), 2U);
     EXPECT_EQ(r[0].kind, Kind::request);
@@ -391,11 +394,13 @@ TEST(Transactions, ACutShortAnswerInItsOwnLineAnswersTheRequestBeforeIt) {
 
 // A broken frame of another slave is no answer to the request.
 TEST(Transactions, ABrokenFrameOfAnotherSlaveAnswersNothing) {
-    Harness h(true);
+    Harness h;
     Chunk request;
     request.bytes = kRead;
+    request.whole_frame = true;
     Chunk other;
     other.bytes = {0x07, 0x03, 0x04, 0x17};
+    other.whole_frame = true;
     const auto& r = h.run({request, other});
     ASSERT_EQ(r.size(), 2U);
     EXPECT_TRUE(r[0].notes.has(note_id::no_answer));

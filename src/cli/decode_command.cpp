@@ -32,6 +32,9 @@ int run_decode(const DecodeArgs& args) {
     int exit_code = 0;
     auto decoding = prepare_decoding(args.output, exit_code, &(*source)->info());
     if (!decoding) return exit_code;
+    if (Status bounds = check_time_bounds(*decoding, (*source)->info().time_base); !bounds) {
+        return print_error(bounds.error()), 2;
+    }
 
     // Ctrl-C or SIGTERM stop at a record boundary: every output flushed and closed (the
     // --pcap file too), the summary printed, then the shell's status for the signal.
@@ -74,8 +77,9 @@ void add_decode_command(CLI::App& app, int& exit_code) {
                                        "annotated text, CSV or JSON Lines");
     cmd->add_option("FILE", args->file, "Input file ('-' for standard input)")->required();
     cmd->add_option("--input-format", args->input_format,
-                    "capture (native text format), raw (bytes, no timing), hex (one frame "
-                    "per line) or pcap (pcap/pcapng); default: detected from the content")
+                    "capture (native text format), raw (bytes, no timing), hex (bytes in hex "
+                    "a line at a time) or pcap (pcap/pcapng); default: detected from the "
+                    "content")
         ->check(CLI::IsMember({"auto", "capture", "raw", "hex", "pcap"}));
     add_output_options(*cmd, args->output);
     cmd->callback([args, &exit_code] { exit_code = run_decode(*args); });

@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <tuple>
+#include <utility>
 
 #include "errors.hpp"
 #include "output/filter.hpp"
@@ -35,8 +36,10 @@ void add_filter_options(CLI::App& cmd, OutputArgs& args) {
         ->type_name("LIST")
         ->group("Filters");
     cmd.add_option("--from", args.from,
-                   "Only frames starting at or after this time: seconds as in the CSV time "
-                   "column, or +S after the first frame")
+                   "Only frames starting at or after this time: a time of day as -t a shows "
+                   "it (08:00:01.5; on the first frame's day, or the next if earlier), a date "
+                   "and time (2026-11-21 08:00:01), seconds as in the CSV time column, or +S "
+                   "after the first frame")
         ->type_name("TIME")
         ->group("Filters");
     cmd.add_option("--to", args.to, "Only frames starting at or before this time (as --from)")
@@ -51,6 +54,16 @@ void add_line_options(CLI::App& cmd, OutputArgs& args) {
                    "capture header (default 8N1)");
     cmd.add_option("--timeout", args.timeout_s,
                    "Seconds after which a request counts as unanswered (default 1)");
+}
+
+TimeFormat time_format(const std::string& letters) {
+    if (letters == "ad") return TimeFormat::local_date;
+    if (letters == "u") return TimeFormat::utc;
+    if (letters == "ud") return TimeFormat::utc_date;
+    if (letters == "r") return TimeFormat::relative;
+    if (letters == "d") return TimeFormat::delta;
+    if (letters == "e") return TimeFormat::epoch;
+    return TimeFormat::local;
 }
 
 }  // namespace
@@ -70,9 +83,12 @@ void add_output_options(CLI::App& cmd, OutputArgs& args) {
         ->type_name("FILE");
     add_line_options(cmd, args);
     cmd.add_option("-t,--time", args.time_format,
-                   "Time column: a = absolute (default), r = relative to the first frame, "
-                   "d = delta to the previous frame")
-        ->check(CLI::IsMember({"a", "r", "d"}));
+                   "Time column (text), as tshark's -t: a = local time of day, the date on a "
+                   "line of its own when it changes (default; TZ applies), ad = local date "
+                   "and time, u/ud = the same in UTC, r = seconds since the first frame, "
+                   "d = since the previous frame, e = seconds as in the CSV (epoch); times "
+                   "read without a zone show as read")
+        ->check(CLI::IsMember({"a", "ad", "u", "ud", "r", "d", "e"}));
     cmd.add_flag("--hex", args.hex, "Show the raw bytes of every frame (text output)");
     cmd.add_flag("--no-color", args.no_color,
                  "No colour (also off when NO_COLOR is set or stdout is not a terminal)");
@@ -219,15 +235,15 @@ std::optional<Decoding> prepare_decoding(const OutputArgs& args, int& exit_code,
         if (!r) return fail(Error{"--kind: " + r.error().message}, 2);
         filter.kinds = *r;
     }
-    for (const auto& [text, bound, relative, name] :
-         {std::tuple(&args.from, &filter.from, &filter.from_relative, "--from"),
-          std::tuple(&args.to, &filter.to, &filter.to_relative, "--to")}) {
+    for (const auto& [text, bound, name] : {std::tuple(&args.from, &filter.from, "--from"),
+                                            std::tuple(&args.to, &filter.to, "--to")}) {
         if (text->empty()) continue;
         auto r = parse_time_bound(*text);
         if (!r) return fail(Error{std::string(name) + ": " + r.error().message}, 2);
-        *bound = r->first;
-        *relative = r->second;
+        *bound = *r;
     }
+    d.from = filter.from;
+    d.to = filter.to;
 
     // A file or a pipe takes the output in large blocks (a terminal keeps its lines); live
     // runs flush after every record anyway. 64 KiB, as the sinks' own blocks: a larger
@@ -254,9 +270,7 @@ std::optional<Decoding> prepare_decoding(const OutputArgs& args, int& exit_code,
         TextOptions text;
         text.hex = args.hex;
         text.color = !args.no_color && std::getenv("NO_COLOR") == nullptr && isatty(STDOUT_FILENO);
-        text.time_format = args.time_format == "r"   ? TimeFormat::relative
-                           : args.time_format == "d" ? TimeFormat::delta
-                                                     : TimeFormat::absolute;
+        text.time_format = time_format(args.time_format);
         d.sink = make_text_sink(stdout, text);
     }
     std::vector<std::unique_ptr<RecordSink>> sinks;
@@ -271,6 +285,16 @@ std::optional<Decoding> prepare_decoding(const OutputArgs& args, int& exit_code,
     d.sink = sinks.size() == 1 ? std::move(sinks.front()) : make_tee_sink(std::move(sinks));
     if (!filter.empty()) d.sink = make_filter_sink(std::move(filter), std::move(d.sink));
     return d;
+}
+
+Status check_time_bounds(const Decoding& decoding, TimeBase base) {
+    for (const auto& [bound, name] :
+         {std::pair(&decoding.from, "--from"), std::pair(&decoding.to, "--to")}) {
+        if (!*bound) continue;
+        Status status = check_time_bound(**bound, base);
+        if (!status) return Error{std::string(name) + ": " + status.error().message};
+    }
+    return ok_status();
 }
 
 Status pcap_status(const Decoding& decoding) {

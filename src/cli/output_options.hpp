@@ -9,6 +9,7 @@
 #include <string>
 
 #include "bus_options.hpp"
+#include "output/filter.hpp"
 #include "output/pcap_writer.hpp"
 #include "pipeline.hpp"
 #include "stats/report.hpp"
@@ -48,6 +49,9 @@ struct Decoding {
     PipelineOptions options;
     std::unique_ptr<RecordSink> sink;
     PcapSink* pcap = nullptr;  // inside `sink`, when --pcap was given
+    // --from and --to as given, to be checked against the input's times once it is open.
+    std::optional<TimeBound> from;
+    std::optional<TimeBound> to;
 };
 // `input`: the opened input's SourceInfo, whose capture header may give the device map and
 // profiles (used unless --device or --bus give their own: a note says so).
@@ -58,6 +62,10 @@ std::optional<Decoding> prepare_decoding(const OutputArgs& args, int& exit_code,
 // device map and the profiles that are not bundled (their TOML), so that the capture
 // decodes the same later, on any machine.
 SourceInfo live_capture_header(const Decoding& decoding, const SourceInfo& live);
+
+// Once the input is open: whether --from and --to can be placed on its times (an Error
+// naming the option if not, for exit status 2).
+Status check_time_bounds(const Decoding& decoding, TimeBase base);
 
 // After the run: a --pcap file that could not be written is an error (printed here).
 Status pcap_status(const Decoding& decoding);

@@ -35,4 +35,16 @@ const char* to_string(Delimiter delimiter) {
     return "";
 }
 
+bool is_whole_frame(std::span<const std::uint8_t> bytes, const ProtocolRules& rules) {
+    if (bytes.size() < kMinAdu || bytes.size() > kMaxAdu) return false;
+    if (check_crc(bytes).status == CrcStatus::bad) return false;
+    const FrameLengths lengths = rules.frame_lengths(bytes);
+    for (const Role role : {Role::request, Role::response}) {
+        const FrameLength& length = lengths.of(role);
+        if (length.kind == FrameLength::Kind::search) return true;
+        if (length.kind == FrameLength::Kind::fixed && length.bytes == bytes.size()) return true;
+    }
+    return false;
+}
+
 }  // namespace rtuscope

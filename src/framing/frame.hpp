@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "framing/crc.hpp"
+#include "framing/functions.hpp"
 #include "framing/note.hpp"
 #include "util/time.hpp"
 
@@ -72,5 +73,11 @@ struct Frame {
 
 const char* to_string(RecordClass cls);
 const char* to_string(Delimiter delimiter);
+
+// Whether `bytes` are exactly one frame by length and CRC: the CRC checks (or checks
+// swapped) and the length is one its function code gives, as a request or an answer; for
+// a code whose length no field gives (FC08/00, unknown codes), the CRC checking at this
+// length is enough.
+bool is_whole_frame(std::span<const std::uint8_t> bytes, const ProtocolRules& rules);
 
 }  // namespace rtuscope

@@ -167,7 +167,9 @@ void Framer::forget_unused_channels() {
 
 void Framer::push(const Chunk& chunk) {
     if (chunk.bytes.empty()) return;
-    if (options_.chunk_is_frame) {
+    if (chunk.whole_frame) {
+        // The stream so far cannot go on into a frame that stands on its own.
+        if (pos_ < bytes_.size()) decide(true);
         emit_chunk_as_frame(chunk);
         return;
     }
@@ -181,22 +183,34 @@ void Framer::push(const Chunk& chunk) {
         !pieces_.empty() && pos_ < bytes_.size() && pieces_.back().channel != channel;
 
     // The chunk's time is when its last byte arrived; earlier bytes are placed back to
-    // back before it, but never before the previous byte (adapters deliver late).
+    // back before it, but never before the previous byte (adapters deliver late). Where
+    // the time is the first byte's start (a hex log's line), the bytes follow it back to
+    // back, after the previous byte if the stamp is earlier (a log's coarse clock).
     const auto n = static_cast<Nanos>(chunk.bytes.size());
+    const bool start_stamped = options_.chunk_time_is_start;
+    // A capture whose clock jumps back (a hand-edited file, a reset clock) cannot say how
+    // long the line was quiet: no gap to measure, no turnaround, and the frame says why.
+    const bool clock_back =
+        has_time(chunk.time) && has_time(last_stamp_) && chunk.time < last_stamp_;
     Nanos first_start = kNoTime;
+    Nanos last_end = kNoTime;
     Nanos gap = kNoTime;
     if (has_time(chunk.time)) {
-        first_start = chunk.time - n * char_time_;
+        first_start = start_stamped ? chunk.time : chunk.time - n * char_time_;
+        last_end = start_stamped ? chunk.time + n * char_time_ : chunk.time;
         if (has_time(last_end_)) {
             gap = std::max<Nanos>(0, first_start - last_end_);
-            if (first_start < last_end_ && chunk.time >= last_end_) first_start = last_end_;
+            if (first_start < last_end_ && !clock_back) {
+                if (start_stamped) last_end += last_end_ - first_start;
+                first_start = last_end_;
+            }
         }
     }
     if (!seen_bytes_ || channel_changed) gap = kBoundary;
-    // A capture whose clock jumps back (a hand-edited file, a reset clock) cannot say how
-    // long the line was quiet: no gap to measure, no turnaround, and the frame says why.
-    if (has_time(chunk.time) && has_time(last_end_) && chunk.time < last_end_) {
-        time_jumps_.emplace_back(bytes_.size(), last_end_ - chunk.time);
+    // After a frame that stood on its own the stream starts afresh, silence measured or not.
+    if (after_whole_frame_ && !is_measured(gap)) gap = kBoundary;
+    if (clock_back) {
+        time_jumps_.emplace_back(bytes_.size(), last_stamp_ - chunk.time);
         gap = kBoundary;
     }
 
@@ -205,14 +219,15 @@ void Framer::push(const Chunk& chunk) {
     piece.end = piece.first + chunk.bytes.size();
     piece.first_start = first_start;
     if (has_time(chunk.time)) {
-        piece.step = (chunk.time - first_start) / n;
-        piece.step_remainder = (chunk.time - first_start) % n;
+        piece.step = (last_end - first_start) / n;
+        piece.step_remainder = (last_end - first_start) % n;
     }
-    piece.time = chunk.time;
+    piece.time = last_end;
     piece.gap = gap;
     piece.line = chunk.source_line;
     piece.channel = channel;
-    piece.exact = chunk.bytes.size() == 1 && previous_chunk_single_;
+    // A log's stamp says when a line was seen, never when each byte ended.
+    piece.exact = chunk.bytes.size() == 1 && previous_chunk_single_ && !start_stamped;
     pieces_.push_back(piece);
     if (ends_frame(gap)) frame_gaps_.push_back(piece.first);
     const auto errors_before = static_cast<std::ptrdiff_t>(char_errors_.size());
@@ -222,9 +237,13 @@ void Framer::push(const Chunk& chunk) {
     // Kept in order, so that a frame finds its own by binary search.
     std::sort(char_errors_.begin() + errors_before, char_errors_.end());
     bytes_.insert(bytes_.end(), chunk.bytes.begin(), chunk.bytes.end());
-    if (has_time(chunk.time)) last_end_ = chunk.time;
+    if (has_time(chunk.time)) {
+        last_end_ = last_end;
+        last_stamp_ = chunk.time;
+    }
     previous_chunk_single_ = chunk.bytes.size() == 1;
     seen_bytes_ = true;
+    after_whole_frame_ = false;
     decide(false);
 }
 
@@ -629,7 +648,8 @@ void Framer::classify_unframed(std::size_t from, std::size_t to) {
     const bool timed = has_time(byte_end(from));
     std::size_t start = from;
     while (start < to) {
-        const std::size_t end = gap_after(start, to);
+        std::size_t end = gap_after(start, to);
+        if (options_.chunk_is_line) end = end_of_unframed_lines(start, end);
         const std::size_t n = end - start;
         const auto piece = std::span(bytes_).subspan(start, n);
         const bool bounded_by_gaps =
@@ -669,6 +689,33 @@ void Framer::classify_unframed(std::size_t from, std::size_t to) {
         }
         start = end;
     }
+}
+
+std::size_t Framer::end_of_unframed_lines(std::size_t start, std::size_t end) const {
+    const Piece& first = piece_of(start);
+    const std::size_t line_end = static_cast<std::size_t>(first.end - base_);
+    if (line_end >= end) return end;
+    // The CRC of the bytes before each candidate's last two, carried from one to the next.
+    std::uint16_t crc = 0xFFFF;
+    std::size_t crc_to = start;
+    std::size_t candidate = line_end;
+    for (auto i = static_cast<std::size_t>(&first - pieces_.data());;) {
+        const std::size_t n = candidate - start;
+        if (n > kMaxAdu) break;
+        if (n >= kMinAdu) {
+            crc =
+                crc16_modbus_update(crc, std::span(bytes_).subspan(crc_to, candidate - 2 - crc_to));
+            crc_to = candidate - 2;
+            const auto bytes = std::span(bytes_).subspan(start, n);
+            if (crc_check_of(bytes, crc).status != CrcStatus::bad ||
+                reading_by_shape(bytes, byte_end(start), false, channels_[first.channel]) != Reading::unknown) {
+                return candidate;
+            }
+        }
+        if (candidate == end || ++i == pieces_.size()) break;
+        candidate = std::min(static_cast<std::size_t>(pieces_[i].end - base_), end);
+    }
+    return line_end;
 }
 
 bool Framer::emit_if_truncated(std::size_t at, std::size_t n) {
@@ -714,7 +761,13 @@ void Framer::emit_chunk_as_frame(const Chunk& chunk) {
     if (has_time(frame.start) && has_time(last_end_) && frame.start >= last_end_) {
         frame.silence_before = frame.start - last_end_;
     }
-    if (has_time(frame.end)) last_end_ = frame.end;
+    if (has_time(frame.end)) {
+        last_end_ = frame.end;
+        last_stamp_ = chunk.time;
+    }
+    seen_bytes_ = true;
+    previous_chunk_single_ = false;
+    after_whole_frame_ = true;
     frame.channel = chunk.channel;
     frame.source_line = chunk.source_line;
     frame.delimiter = Delimiter::line;

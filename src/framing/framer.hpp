@@ -25,8 +25,11 @@ namespace rtuscope {
 
 struct FramerOptions {
     LineSettings line;
-    bool chunk_is_frame = false;       // hex logs: each chunk is exactly one frame
-    bool chunk_time_is_start = false;  // with chunk_is_frame: the time is the frame's start
+    // A chunk's time is its first byte's start (pcap, hex logs), not its last byte's end.
+    bool chunk_time_is_start = false;
+    // Hex logs: each chunk is a line, so bytes that form no frame are cut at line starts
+    // (SourceInfo::chunk_is_line).
+    bool chunk_is_line = false;
     const ProtocolRules* rules = &standard_rules();
     const AnswerExpectation* expectation = nullptr;  // usually the pairing stage
     // Two-port taps (one port per direction): chunks tagged with this channel carry the
@@ -44,7 +47,9 @@ class Framer {
 
     Framer(const FramerOptions& options, Emit emit);
 
-    // Adds a chunk; emits every record that the bytes so far decide.
+    // Adds a chunk; emits every record that the bytes so far decide. A whole-frame chunk
+    // (Chunk::whole_frame) is a frame as it is: what is buffered before it is decided as
+    // if the input ended there, then it is emitted.
     void push(const Chunk& chunk);
     // Live input: nothing has arrived up to `now`. Once the line has been quiet for
     // longer than t3.5 plus `idle_margin`, what is buffered is decided as if the input
@@ -95,6 +100,10 @@ class Framer {
     // A silence (or the start of the input or of a channel) of at least t3.5.
     [[nodiscard]] bool ends_frame(Nanos gap) const { return gap != kNoTime && gap >= t35_; }
     void classify_unframed(std::size_t from, std::size_t to);
+    // Hex logs: where bytes from `start` that form no frame end, at most at `end`: after
+    // the fewest whole lines that have a frame's shape or a right CRC (a frame with a
+    // wrong CRC over several lines), else at the end of the line `start` is in.
+    [[nodiscard]] std::size_t end_of_unframed_lines(std::size_t start, std::size_t end) const;
     // Which reading the request/answer sequence expects for the bytes `head` at `at`,
     // when both fit: an answer (else a request). On a two-port tap the port they came
     // from says it outright.
@@ -123,7 +132,7 @@ class Framer {
         // (time - first_start) / bytes and its remainder: see byte_end.
         Nanos step = 0;
         Nanos step_remainder = 0;
-        Nanos time = kNoTime;  // its last byte's end (the chunk's time)
+        Nanos time = kNoTime;  // its last byte's end (the chunk's time, unless start-stamped)
         Nanos gap = kNoTime;   // silence before its first byte; kBoundary at a start
         int line = 0;
         std::uint32_t channel = 0;  // in channels_
@@ -197,10 +206,12 @@ class Framer {
     std::unordered_map<std::string, std::uint32_t> channel_numbers_;
     std::size_t channels_limit_ = kChannelsKept;  // forget_unused_channels() when reached
     std::uint32_t last_channel_ = 0;              // the last chunk's
-    Nanos last_end_ = kNoTime;
+    Nanos last_end_ = kNoTime;                    // the last byte's end, as placed
+    Nanos last_stamp_ = kNoTime;                  // the last chunk's time, as the input stamped it
     bool seen_bytes_ = false;
     bool stopped_ = false;  // finish(true): the bytes at the end were cut by the stop
     bool previous_chunk_single_ = false;
+    bool after_whole_frame_ = false;  // the last chunk was a whole frame
 };
 
 }  // namespace rtuscope

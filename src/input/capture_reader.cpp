@@ -207,6 +207,7 @@ class CaptureReader final : public ChunkSource {
         info_.name = in_->name();
         info_.format = "capture";
         info_.timed = true;
+        info_.time_base = TimeBase::relative;
     }
 
     // Reads the header and the comments after it, so that `# serial` is known before
@@ -231,6 +232,14 @@ class CaptureReader final : public ChunkSource {
                 in_header_ = false;
                 pending_ = line;
                 has_pending_ = true;
+                // Unix time or relative seconds: the first timestamp tells (a bad one is
+                // reported when its line is read).
+                Nanos first = 0;
+                std::size_t length = 0;
+                const std::size_t at = skip_space(line, 0);
+                if (parse_seconds(line.substr(at), first, length) == TimeParse::ok) {
+                    info_.time_base = time_base_of(first);
+                }
                 return ok_status();
             }
         }

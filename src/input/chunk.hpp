@@ -17,23 +17,33 @@ namespace rtuscope {
 // Bytes that arrived together: what one read() on a tty returns, one line of a capture
 // file, one byte of a logic-analyser export, one line of a hex log.
 struct Chunk {
-    Nanos time = kNoTime;  // when the LAST byte of the chunk was received
-    std::string channel;   // "@NAME" of a two-port tap; empty when there is one line
+    // When the LAST byte of the chunk was received; its first byte's start instead when
+    // the source says so (SourceInfo::chunk_time_is_start).
+    Nanos time = kNoTime;
+    std::string channel;  // "@NAME" of a two-port tap; empty when there is one line
     std::vector<std::uint8_t> bytes;
     int source_line = 0;  // line in the input file, 0 when the source has no lines
     // Offsets of bytes the UART received with a parity or framing error (a live tty with
     // PARMRK); such a byte is kept as it came, and the frame it lands in says so.
     std::vector<std::uint32_t> char_errors;
+    // The bytes are exactly one frame, to be taken as it is (a pcap packet, a hex log's
+    // line that holds one frame by length and CRC); otherwise they are bytes of the
+    // stream, for the framer to cut (a frame over several chunks, several in one).
+    bool whole_frame = false;
 };
 
 // What a source knows about itself once its header (if any) has been read.
 struct SourceInfo {
-    std::string name;                  // file name for messages, "-" for stdin
-    std::string format;                // "capture", "raw", "hex", "pcap", "live"
-    std::optional<LineSettings> line;  // from the capture header, if it has one
-    bool timed = false;                // chunks carry times
-    bool chunk_is_frame = false;       // hex logs: each line is exactly one frame
-    bool chunk_time_is_start = false;  // pcap: a chunk's time is its first byte's start
+    std::string name;                     // file name for messages, "-" for stdin
+    std::string format;                   // "capture", "raw", "hex", "pcap", "live"
+    std::optional<LineSettings> line;     // from the capture header, if it has one
+    bool timed = false;                   // chunks carry times
+    TimeBase time_base = TimeBase::none;  // what those times are (util/time.hpp)
+    // A chunk's time is its first byte's start (pcap, hex logs), not its last byte's end.
+    bool chunk_time_is_start = false;
+    // Hex logs: a chunk is a line someone wrote, a frame or a piece of one, so a line's
+    // start is where bytes that form no frame are cut.
+    bool chunk_is_line = false;
     // What a capture's header says beyond the line (docs/formats.md), so that a capture
     // decodes the same on any machine: the program that wrote it, its device map (slave
     // address, profile name) and the TOML text of the profiles that are not bundled.

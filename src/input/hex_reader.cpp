@@ -1,5 +1,5 @@
-// Hex reader: one frame per line, the way vendor manuals and serial-terminal logs show
-// them, e.g.
+// Hex reader: bytes in hex, a line at a time, the way vendor manuals and serial-terminal
+// logs show them, e.g.
 //
 //   主机：01 03 00 00 00 02 c4 0b
 //   ZB-UVI485模块：**01 03 02 18 18 b2 4e**
@@ -7,11 +7,14 @@
 //   10:21:33.120 RX 01 03 02 17 F8 B6 36
 //   010300000002C40B                        // one continuous token
 //
-// The frame is the longest run of two-digit hex tokens at the end of the line (or one
-// continuous even-length token); whatever comes before it is decoration, searched only
-// for a timestamp. Scanning from the end is what keeps a time like 10:21:33 from being
-// read as bytes: a token with ':' inside is never a hex token, and a decoration glued to
-// the first byte (`TX:01`) is only split off when it cannot be the tail of a time.
+// The bytes are the longest run of two-digit hex tokens at the end of the line (or one
+// continuous even-length token); whatever comes before them is decoration, searched only
+// for a timestamp. Most lines hold one frame, and such a line is taken as it is (a whole
+// frame); a line that does not (a piece of a frame, as terminals that log each read()
+// write them, several frames, a wrong CRC) goes to the framer as bytes of the stream. Scanning from
+// the end is what keeps a time like 10:21:33 from being read as bytes: a token with ':' inside is
+// never a hex token, and a decoration glued to the first byte (`TX:01`) is only split off when it
+// cannot be the tail of a time.
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -20,18 +23,24 @@
 #include <memory>
 #include <utility>
 
+#include "framing/frame.hpp"
 #include "input/readers.hpp"
 
 namespace rtuscope::detail {
 namespace {
 
-constexpr int kMinFrameBytes = 3;
+// A line needs this many bytes to be taken, or a timestamp: a terminal that logs each
+// read() stamps every line, while a manual's prose ("step 2", "see 10") has none.
+constexpr std::size_t kMinFrameBytes = 3;
 
 bool is_ascii_space(char c) {
     return c == ' ' || c == '\t' || c == '\v' || c == '\f';
 }
 bool is_digit(char c) {
     return c >= '0' && c <= '9';
+}
+bool is_letter(char c) {
+    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z');
 }
 
 // Separators between tokens besides white space: commas of C arrays, `**` emphasis and
@@ -208,17 +217,6 @@ void append_bytes(std::string_view s, std::size_t i, std::vector<std::uint8_t>& 
 
 // --- timestamps in the decoration ---------------------------------------------------
 
-// Days since 1970-01-01 of a proleptic Gregorian date (H. Hinnant, "chrono-compatible
-// low-level date algorithms"); no time zone or locale involved.
-std::int64_t days_from_civil(std::int64_t y, unsigned m, unsigned d) {
-    y -= m <= 2 ? 1 : 0;
-    const std::int64_t era = (y >= 0 ? y : y - 399) / 400;
-    const auto yoe = static_cast<unsigned>(y - era * 400);
-    const unsigned doy = (153 * (m > 2 ? m - 3 : m + 9) + 2) / 5 + d - 1;
-    const unsigned doe = yoe * 365 + yoe / 4 - yoe / 100 + doy;
-    return era * 146097 + static_cast<std::int64_t>(doe) - 719468;
-}
-
 bool digits_at(std::string_view s, std::size_t i, std::size_t n, unsigned& value) {
     if (i + n > s.size()) return false;
     value = 0;
@@ -261,22 +259,25 @@ bool time_of_day_at(std::string_view s, std::size_t i, Nanos& out, std::size_t& 
     return true;
 }
 
-// `Z`, `+08:00`, `+0800` right after the time: the offset east of UTC, in nanoseconds.
-Nanos utc_offset_at(std::string_view s, std::size_t i) {
-    if (i >= s.size() || (s[i] != '+' && s[i] != '-')) return 0;
+// `Z`, `+08:00`, `+0800` right after the time: the offset east of UTC, in nanoseconds;
+// nullopt when there is none.
+std::optional<Nanos> utc_offset_at(std::string_view s, std::size_t i) {
+    if (i < s.size() && s[i] == 'Z' && (i + 1 == s.size() || !is_letter(s[i + 1]))) return 0;
+    if (i >= s.size() || (s[i] != '+' && s[i] != '-')) return std::nullopt;
     unsigned h = 0;
     unsigned m = 0;
-    if (!digits_at(s, i + 1, 2, h)) return 0;
+    if (!digits_at(s, i + 1, 2, h)) return std::nullopt;
     std::size_t j = i + 3;
     if (j < s.size() && s[j] == ':') ++j;
-    if (!digits_at(s, j, 2, m) || h > 14 || m > 59) return 0;
-    if (j + 2 < s.size() && is_digit(s[j + 2])) return 0;
+    if (!digits_at(s, j, 2, m) || h > 14 || m > 59) return std::nullopt;
+    if (j + 2 < s.size() && is_digit(s[j + 2])) return std::nullopt;
     const Nanos offset = (static_cast<Nanos>(h) * 60 + m) * 60 * kNanosPerSecond;
     return s[i] == '-' ? -offset : offset;
 }
 
-// `YYYY-MM-DD HH:MM:SS[.frac]` (also `T` or `_` between, `/` in the date) as Unix time.
-bool date_time_at(std::string_view s, std::size_t i, Nanos& out) {
+// `YYYY-MM-DD HH:MM:SS[.frac]` (also `T` or `_` between, `/` in the date): Unix time
+// with a UTC offset after it, else the date and time as read, counted as if UTC.
+bool date_time_at(std::string_view s, std::size_t i, Nanos& out, bool& zoned) {
     unsigned y = 0;
     unsigned mo = 0;
     unsigned d = 0;
@@ -294,13 +295,15 @@ bool date_time_at(std::string_view s, std::size_t i, Nanos& out) {
     std::size_t end = 0;
     if (!time_of_day_at(s, i + 11, tod, end)) return false;
     const std::int64_t days = days_from_civil(y, mo, d);
-    out = days * 86400 * kNanosPerSecond + tod - utc_offset_at(s, end);
+    const std::optional<Nanos> offset = utc_offset_at(s, end);
+    zoned = offset.has_value();
+    out = days * kNanosPerDay + tod - offset.value_or(0);
     return true;
 }
 
 struct FoundTime {
     Nanos time = kNoTime;
-    bool date = false;  // false: seconds since midnight
+    TimeBase base = TimeBase::none;  // unix_time, wall_clock or time_of_day
 };
 
 FoundTime find_time(std::string_view s) {
@@ -308,29 +311,34 @@ FoundTime find_time(std::string_view s) {
     for (std::size_t i = 0; i < s.size(); ++i) {
         if (!is_digit(s[i]) || (i > 0 && is_digit(s[i - 1]))) continue;
         Nanos t = 0;
-        if (date_time_at(s, i, t)) return {t, true};
+        bool zoned = false;
+        if (date_time_at(s, i, t, zoned)) {
+            return {t, zoned ? TimeBase::unix_time : TimeBase::wall_clock};
+        }
         std::size_t end = 0;
-        if (!has_time(time_only.time) && time_of_day_at(s, i, t, end)) time_only.time = t;
+        if (!has_time(time_only.time) && time_of_day_at(s, i, t, end)) {
+            time_only = {t, TimeBase::time_of_day};
+        }
     }
     return time_only;
 }
 
 // --- the reader -----------------------------------------------------------------------
 
-constexpr Nanos kDay = 86400 * kNanosPerSecond;
-
 class HexReader final : public ChunkSource {
   public:
     explicit HexReader(std::unique_ptr<InputBuffer> in) : in_(std::move(in)) {
         info_.name = in_->name();
         info_.format = "hex";
-        info_.chunk_is_frame = true;
+        // A log stamps a line when it saw it: the frame, or the piece of one, starts then.
+        info_.chunk_time_is_start = true;
+        info_.chunk_is_line = true;
     }
 
-    // Reads up to the first frame so that info().timed is known before the pipeline
-    // copies it.
+    // Reads up to the first line with bytes so that info().timed and info().time_base
+    // are known before the pipeline copies them.
     Status open() {
-        Result<bool> got = read_frame(pending_);
+        Result<bool> got = read_line(pending_);
         if (!got) return got.error();
         has_pending_ = *got;
         return ok_status();
@@ -344,11 +352,24 @@ class HexReader final : public ChunkSource {
             out = std::move(pending_);
             return true;
         }
-        return read_frame(out);
+        return read_line(out);
     }
 
     [[nodiscard]] std::vector<std::string> remarks() const override {
-        if (skipped_count_ == 0) return {};
+        std::vector<std::string> out;
+        // Said only when some line was not a frame of its own: otherwise every line was
+        // one frame, as most logs are.
+        if (stream_lines_ != 0) {
+            out.push_back(fmt::format(
+                "{} held one frame{}, {} line{} framed as a byte stream (not one frame by "
+                "length and CRC)",
+                whole_lines_ == 0   ? std::string("no line")
+                : whole_lines_ == 1 ? std::string("1 line")
+                                    : fmt::format("{} lines", whole_lines_),
+                whole_lines_ <= 1 ? "" : " each", stream_lines_,
+                stream_lines_ == 1 ? " was" : "s were"));
+        }
+        if (skipped_count_ == 0) return out;
         constexpr std::size_t kShownRanges = 20;
         std::string text = fmt::format("skipped {} line{} with no frame: ", skipped_count_,
                                        skipped_count_ == 1 ? "" : "s");
@@ -358,11 +379,12 @@ class HexReader final : public ChunkSource {
             text += first == last ? fmt::format("{}", first) : fmt::format("{}-{}", first, last);
         }
         if (skipped_.size() > kShownRanges || ranges_dropped_) text += ", ...";
-        return {text};
+        out.push_back(std::move(text));
+        return out;
     }
 
   private:
-    Result<bool> read_frame(Chunk& out) {
+    Result<bool> read_line(Chunk& out) {
         std::string_view line;
         for (;;) {
             Result<bool> more = in_->next_line(line);
@@ -372,30 +394,40 @@ class HexReader final : public ChunkSource {
             if (is_blank_or_comment(line)) continue;
             out.bytes.clear();
             const HexLine scanned = scan_hex_line(line, &out.bytes);
-            if (scanned.byte_count < kMinFrameBytes) {
+            const FoundTime found =
+                scanned.byte_count == 0 ? FoundTime{} : find_time(scanned.decoration);
+            if (scanned.byte_count < kMinFrameBytes &&
+                (scanned.byte_count == 0 || !has_time(found.time))) {
                 skip(number);
                 continue;
             }
             out.channel.clear();
             out.source_line = number;
-            out.time = frame_time(scanned.decoration);
-            if (has_time(out.time)) info_.timed = true;
+            out.time = line_time(found);
+            // The standard lengths: a device's own layout of a standard code is no
+            // frame by them, and its line is framed with the device's rules instead.
+            out.whole_frame = is_whole_frame(out.bytes, standard_rules());
+            ++(out.whole_frame ? whole_lines_ : stream_lines_);
+            if (has_time(out.time)) {
+                info_.timed = true;
+                // The first timestamp says what the times are.
+                if (info_.time_base == TimeBase::none) info_.time_base = found.base;
+            }
             return true;
         }
     }
 
-    Nanos frame_time(std::string_view decoration) {
-        const FoundTime found = find_time(decoration);
-        if (!has_time(found.time) || found.date) return found.time;
+    Nanos line_time(const FoundTime& found) {
+        if (!has_time(found.time) || found.base != TimeBase::time_of_day) return found.time;
         // A log of times without dates that runs past midnight goes on counting rather
         // than jumping back a day.
         Nanos t = found.time + day_offset_;
         // Never past kMaxTime: a long log flipping between evening and morning would
         // otherwise count days up to an overflow. Stuck there, its time goes back instead.
-        if (has_time(last_time_of_day_) && t < last_time_of_day_ - kDay / 2 &&
-            t <= kMaxTime - kDay) {
-            day_offset_ += kDay;
-            t += kDay;
+        if (has_time(last_time_of_day_) && t < last_time_of_day_ - kNanosPerDay / 2 &&
+            t <= kMaxTime - kNanosPerDay) {
+            day_offset_ += kNanosPerDay;
+            t += kNanosPerDay;
         }
         last_time_of_day_ = t;
         return t;
@@ -420,6 +452,8 @@ class HexReader final : public ChunkSource {
     bool has_pending_ = false;
     Nanos day_offset_ = 0;
     Nanos last_time_of_day_ = kNoTime;
+    std::uint64_t whole_lines_ = 0;   // lines that were one frame each
+    std::uint64_t stream_lines_ = 0;  // lines that went to the framer as bytes
     std::size_t skipped_count_ = 0;
     std::vector<std::pair<int, int>> skipped_;  // first and last line of each run
     bool ranges_dropped_ = false;
@@ -455,7 +489,7 @@ HexLine scan_hex_line(std::string_view line, std::vector<std::uint8_t>* bytes) {
         if (line[i] == '/') ++i;
     }
     if (run.count == 0) run = find_run(line);
-    if (bytes != nullptr && run.count >= kMinFrameBytes) append_bytes(segment, run.begin, *bytes);
+    if (bytes != nullptr && run.count != 0) append_bytes(segment, run.begin, *bytes);
     return {run.count, line.substr(0, run.begin)};
 }
 

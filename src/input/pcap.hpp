@@ -27,12 +27,12 @@ inline constexpr std::uint16_t kModbusPort = 502;
 inline constexpr std::uint16_t kMasterPort = 49152;
 
 // A source over a pcap or pcapng file. Each packet holding a Modbus RTU frame becomes one
-// Chunk (chunk_is_frame): its time is the packet's timestamp, the frame's start
-// (chunk_time_is_start), its channel "master" when
-// the packet went to port 502, "slave" when it came from port 502, empty otherwise.
-// Packets that carry no frame (other protocols, empty TCP segments, exported PDUs for
-// other dissectors) are skipped and counted in remarks(). A file cut short or corrupt
-// gives its packets up to the bad one, then an error naming the packet.
+// whole-frame Chunk (Chunk::whole_frame): its time is the packet's timestamp, the
+// frame's start (chunk_time_is_start), its channel "master" when the packet went to port
+// 502, "slave" when it came from port 502, empty otherwise. Packets that carry no frame
+// (other protocols, empty TCP segments, exported PDUs for other dissectors) are skipped
+// and counted in remarks(). A file cut short or corrupt gives its packets up to the bad
+// one, then an error naming the packet.
 Result<std::unique_ptr<ChunkSource>> open_pcap_source(const std::string& path);
 
 // The same over a file in memory; `name` is used in messages.

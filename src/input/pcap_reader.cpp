@@ -9,8 +9,10 @@
 #include <cstring>
 #include <map>
 #include <memory>
+#include <optional>
 #include <span>
 #include <string_view>
+#include <utility>
 
 #include "input/pcap.hpp"
 #include "input/readers.hpp"
@@ -265,8 +267,11 @@ class PcapSource final : public ChunkSource {
         info_.name = std::move(name);
         info_.format = "pcap";
         info_.timed = true;
-        info_.chunk_is_frame = true;
         info_.chunk_time_is_start = true;  // rtuscope and Wireshark stamp frame starts
+        // Unix time, unless the numbers are too small for it: a pcap written from a
+        // capture with relative times. The first packet tells.
+        first_ = read_chunk(pending_);
+        if (first_ && *first_) info_.time_base = time_base_of(pending_.time);
     }
     ~PcapSource() override { pcap_close(pcap_); }
     PcapSource(const PcapSource&) = delete;
@@ -275,6 +280,31 @@ class PcapSource final : public ChunkSource {
     [[nodiscard]] const SourceInfo& info() const override { return info_; }
 
     Result<bool> next(Chunk& out) override {
+        if (first_) {
+            Result<bool> first = std::move(*first_);
+            first_.reset();
+            if (first && *first) std::swap(out, pending_);
+            return first;
+        }
+        return read_chunk(out);
+    }
+
+    [[nodiscard]] std::vector<std::string> remarks() const override {
+        std::vector<std::string> out;
+        if (!cut_off_.empty()) out.push_back(cut_off_);
+        for (const auto& [why, count] : skipped_) {
+            out.push_back(fmt::format("skipped {} of {} packets: {}", count, packets_, why));
+        }
+        if (skipped_otherwise_ != 0) {
+            out.push_back(fmt::format("skipped {} of {} packets: other reasons (more than {})",
+                                      skipped_otherwise_, packets_, kMaxSkipReasons));
+        }
+        return out;
+    }
+
+  private:
+    // The next packet that holds a frame, as a chunk; false at the end of the file.
+    Result<bool> read_chunk(Chunk& out) {
         for (;;) {
             pcap_pkthdr* header = nullptr;
             const u_char* data = nullptr;
@@ -322,24 +352,11 @@ class PcapSource final : public ChunkSource {
             out.bytes.assign(got->frame.begin(), got->frame.end());
             out.source_line = 0;
             out.char_errors.clear();
+            out.whole_frame = true;  // one packet, one frame
             return true;
         }
     }
 
-    [[nodiscard]] std::vector<std::string> remarks() const override {
-        std::vector<std::string> out;
-        if (!cut_off_.empty()) out.push_back(cut_off_);
-        for (const auto& [why, count] : skipped_) {
-            out.push_back(fmt::format("skipped {} of {} packets: {}", count, packets_, why));
-        }
-        if (skipped_otherwise_ != 0) {
-            out.push_back(fmt::format("skipped {} of {} packets: other reasons (more than {})",
-                                      skipped_otherwise_, packets_, kMaxSkipReasons));
-        }
-        return out;
-    }
-
-  private:
     pcap_t* pcap_;
     std::unique_ptr<char[]> read_buffer_;
     std::string cut_off_;  // the remark for a file cut off in its last packet
@@ -351,6 +368,9 @@ class PcapSource final : public ChunkSource {
     std::uint64_t packets_ = 0;
     std::map<std::string, std::uint64_t> skipped_;
     std::uint64_t skipped_otherwise_ = 0;  // for reasons beyond kMaxSkipReasons
+    // The first packet, read ahead for the time base, and what reading it gave.
+    Chunk pending_;
+    std::optional<Result<bool>> first_;
 };
 
 }  // namespace

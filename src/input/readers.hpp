@@ -59,13 +59,13 @@ std::unique_ptr<ChunkSource> make_raw_reader(std::unique_ptr<InputBuffer> in);
 Result<std::unique_ptr<ChunkSource>> make_capture_reader(std::unique_ptr<InputBuffer> in);
 Result<std::unique_ptr<ChunkSource>> make_hex_reader(std::unique_ptr<InputBuffer> in);
 
-// What a hex log line holds: the frame at its end and the decoration in front of it.
+// What a hex log line holds: the bytes at its end and the decoration in front of them.
 struct HexLine {
-    std::size_t byte_count = 0;   // bytes in the frame run (0: none)
+    std::size_t byte_count = 0;   // bytes in the run at the end (0: none)
     std::string_view decoration;  // everything before the run
 };
 
-// Scans one line by the hex-log rules (sources.hpp, hex_reader.cpp). Appends the frame's
+// Scans one line by the hex-log rules (sources.hpp, hex_reader.cpp). Appends the run's
 // bytes to `bytes` when it is not null.
 HexLine scan_hex_line(std::string_view line, std::vector<std::uint8_t>* bytes);
 

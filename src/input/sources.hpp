@@ -1,7 +1,8 @@
 // Stage 1, sources: readers for the input formats rtuscope decodes offline.
 //   capture: the native text capture format v1 (docs/formats.md), timed chunks;
 //   raw:     bytes only, no timing (cat /dev/ttyUSB0 > dump.bin);
-//   hex:     one frame per line in hex, as manuals and serial-terminal logs show them;
+//   hex:     bytes in hex a line at a time, as manuals and serial-terminal logs show them
+//            (a line that is one frame is taken as it is, others are framed);
 //   pcap:    pcap and pcapng files, one frame per packet (pcap.hpp).
 #pragma once
 

@@ -87,6 +87,7 @@ class TtySource final : public ChunkSource {
         info_.format = "live";
         info_.line = options_.line;
         info_.timed = true;
+        info_.time_base = TimeBase::unix_time;  // the real-time clock
         // Wall time for the capture file and the output, steady time for the gaps.
         mono_start_ = clock_ns(CLOCK_MONOTONIC);
         wall_start_ = clock_ns(CLOCK_REALTIME);

@@ -13,13 +13,23 @@
 
 namespace rtuscope {
 
-// tshark's habit: absolute by default, relative to the first record, delta to previous.
-enum class TimeFormat : std::uint8_t { absolute, relative, delta };
+// The text's time column, tshark's -t letters: a (the default), ad, u, ud, r, d, e.
+enum class TimeFormat : std::uint8_t {
+    local,       // a: local time of day (TZ applies), a line with the date when it changes
+    local_date,  // ad: local date and time
+    utc,         // u: UTC time of day, a line with the date when it changes
+    utc_date,    // ud: UTC date and time
+    relative,    // r: seconds since the first record
+    delta,       // d: seconds since the previous record
+    epoch,       // e: seconds as in the CSV time column (Unix time for absolute times)
+};
+// Times read without a zone (a log's date and time, or time of day) show as read in a,
+// ad, u and ud; relative times show as seconds (SourceInfo::time_base).
 
 struct TextOptions {
     bool color = false;
     bool hex = false;  // the raw bytes of every record on a line of their own
-    TimeFormat time_format = TimeFormat::absolute;
+    TimeFormat time_format = TimeFormat::local;
 };
 
 std::unique_ptr<RecordSink> make_text_sink(std::FILE* out, TextOptions options);

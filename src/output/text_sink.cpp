@@ -3,12 +3,15 @@
 #include <fmt/color.h>
 #include <fmt/format.h>
 
+#include <algorithm>
+#include <limits>
 #include <span>
 
 #include "output/block_output.hpp"
 #include "output/fields.hpp"
 #include "output/sinks.hpp"
 #include "util/text.hpp"
+#include "util/time.hpp"
 
 namespace rtuscope {
 namespace {
@@ -17,24 +20,31 @@ namespace {
 // at run time.
 using namespace std::string_view_literals;
 
-// Timestamps from 2001 on are taken as absolute Unix time and shown as time of day (UTC:
-// output must not depend on the machine's zone); smaller ones are relative seconds.
-constexpr Nanos kAbsoluteFrom = 1'000'000'000 * kNanosPerSecond;
 constexpr std::size_t kNoiseBytesShown = 16;
+// The time column's width ("08:00:00.001667"), and the indent of the lines under a record
+// when the column has that width.
+constexpr std::size_t kTimeColumn = 15;
+constexpr std::size_t kUnderIndent = 28;
+
+// "2026-11-21"
+char* write_date(char* p, const CivilDate& date) {
+    p = write_digits(p, static_cast<std::uint64_t>(std::max<std::int64_t>(0, date.year)), 4);
+    *p++ = '-';
+    p = write_digits(p, date.month, 2);
+    *p++ = '-';
+    return write_digits(p, date.day, 2);
+}
 
 // "08:00:00.001667"
-void append_time_of_day(std::string& out, Nanos time) {
-    const std::uint64_t micros = (static_cast<std::uint64_t>(time) + 500) / 1000;
-    const std::uint64_t seconds = micros / 1'000'000 % 86'400;
-    append_with(out, 15, [&](char* p) {
-        p = write_digits(p, seconds / 3600, 2);
-        *p++ = ':';
-        p = write_digits(p, seconds / 60 % 60, 2);
-        *p++ = ':';
-        p = write_digits(p, seconds % 60, 2);
-        *p++ = '.';
-        return write_digits(p, micros % 1'000'000, 6);
-    });
+char* write_clock(char* p, std::int64_t second_of_day, std::int64_t micros) {
+    const auto seconds = static_cast<std::uint64_t>(second_of_day);
+    p = write_digits(p, seconds / 3600, 2);
+    *p++ = ':';
+    p = write_digits(p, seconds / 60 % 60, 2);
+    *p++ = ':';
+    p = write_digits(p, seconds % 60, 2);
+    *p++ = '.';
+    return write_digits(p, static_cast<std::uint64_t>(micros), 6);
 }
 
 const char* arrow(const Record& r) {
@@ -61,6 +71,15 @@ class TextSink final : public RecordSink {
     TextSink(std::FILE* out, TextOptions options) : out_(out), options_(options) {}
 
     void begin(const SessionInfo& s) override {
+        base_ = s.source.time_base;
+        const TimeFormat format = options_.time_format;
+        const bool with_date = format == TimeFormat::local_date || format == TimeFormat::utc_date;
+        // Times without a date (a log's time of day) have none to show in the column.
+        if (with_date && (base_ == TimeBase::unix_time || base_ == TimeBase::wall_clock)) {
+            time_width_ = kTimeColumn + 11;
+        } else if (format == TimeFormat::epoch && base_ == TimeBase::unix_time) {
+            time_width_ = kTimeColumn + 2;  // "1763798400.001667"
+        }
         const LineSettings& line = s.line;
         fmt::print(out_.file(), "{}: {} input, {} {} (t1.5 {:.2f} ms, t3.5 {:.2f} ms){}\n",
                    s.source.name, s.source.format, line.baud, line.format(),
@@ -72,10 +91,10 @@ class TextSink final : public RecordSink {
     void record(const Record& r) override {
         std::string& line = out_.line();
         time_text_.clear();
-        append_time_column(time_text_, r.frame.start);
+        append_time_column(line, time_text_, r.frame.start);
         append_padded(line, r.number, 5);
         line += ' ';
-        append_padded(line, time_text_, 15, true);
+        append_padded(line, time_text_, time_width_, true);
         line += "  "sv;
         const bool framed = r.kind != Kind::noise;
         if (framed) {
@@ -124,7 +143,7 @@ class TextSink final : public RecordSink {
         while (!line.empty() && line.back() == ' ') line.pop_back();
         line += '\n';
         if (options_.hex && framed) {
-            line.append(28, ' ');
+            line.append(kUnderIndent + time_width_ - kTimeColumn, ' ');
             append_hex(line, r.frame.bytes, true);
             line += '\n';
         }
@@ -163,7 +182,8 @@ class TextSink final : public RecordSink {
     // One line per value under its frame; registers the profile does not list are
     // gathered into runs, as devices often fill unused ranges with zeros.
     void append_values(std::string& out, std::span<const DecodedValue> values) {
-        constexpr std::string_view kIndent = "                            ";
+        if (indent_.empty()) indent_.assign(kUnderIndent + time_width_ - kTimeColumn, ' ');
+        const std::string_view indent = indent_;
         for (std::size_t i = 0; i < values.size();) {
             const DecodedValue& v = values[i];
             if (v.name.empty()) {
@@ -174,7 +194,7 @@ class TextSink final : public RecordSink {
                     ++end;
                 }
                 const std::size_t n = end - i;
-                out += kIndent;
+                out += indent;
                 append_hex4(out, v.address);
                 if (n > 1) {
                     out += ".."sv;
@@ -194,7 +214,7 @@ class TextSink final : public RecordSink {
                 i = end;
                 continue;
             }
-            out += kIndent;
+            out += indent;
             append_padded(out, v.name, 16, false);
             out += " = "sv;
             out += v.value.empty() ? "?"sv : std::string_view(v.value);
@@ -211,27 +231,112 @@ class TextSink final : public RecordSink {
         }
     }
 
-    void append_time_column(std::string& out, Nanos time) {
+    // The time column of a record at `time` into `out`; a line saying the date, when it
+    // changes, into `line` (the record's own line comes after it).
+    void append_time_column(std::string& line, std::string& out, Nanos time) {
         if (!has_time(time)) {
             out += '-';
             return;
         }
         if (!has_time(first_)) first_ = time;
-        switch (options_.time_format) {
-            case TimeFormat::absolute:
-                if (time >= kAbsoluteFrom) {
-                    append_time_of_day(out, time);
-                } else {
-                    append_seconds(out, time);
-                }
-                return;
+        const TimeFormat format = options_.time_format;
+        switch (format) {
             case TimeFormat::relative:
                 append_seconds(out, time - first_);
                 return;
             case TimeFormat::delta:
                 append_seconds(out, has_time(previous_) ? time - previous_ : 0);
                 return;
+            case TimeFormat::epoch:
+                append_seconds(out, time);
+                return;
+            case TimeFormat::local:
+            case TimeFormat::local_date:
+            case TimeFormat::utc:
+            case TimeFormat::utc_date:
+                break;
         }
+        // Relative seconds (and the times of a source that said it has none) have no
+        // clock to show.
+        if (!has_clock(base_)) {
+            append_seconds(out, time);
+            return;
+        }
+        // Rounded to the microsecond first, so that the date rolls over with the seconds.
+        const std::int64_t micros = floor_div(time, 1000) + (floor_mod(time, 1000) >= 500 ? 1 : 0);
+        const std::int64_t seconds = floor_div(micros, 1'000'000);
+        const bool local = base_ == TimeBase::unix_time &&
+                           (format == TimeFormat::local || format == TimeFormat::local_date);
+        if (local) {
+            if (seconds != local_second_) {
+                local_second_ = seconds;
+                local_ = local_time(seconds);
+            }
+        } else {
+            const std::int64_t day = floor_div(seconds, 86'400);
+            if (day != local_day_) {
+                local_day_ = day;
+                local_.date = civil_from_days(day);
+            }
+            local_.second_of_day = seconds - day * 86'400;
+        }
+        const bool with_date =
+            (format == TimeFormat::local_date || format == TimeFormat::utc_date) &&
+            base_ != TimeBase::time_of_day;
+        if (!with_date) append_day_line(line, local);
+        append_with(out, 32, [&](char* p) {
+            if (with_date) {
+                p = write_date(p, local_.date);
+                *p++ = ' ';
+            }
+            return write_clock(p, local_.second_of_day, floor_mod(micros, 1'000'000));
+        });
+    }
+
+    // "-- 2026-11-21 CET (UTC+01:00)" before the first record of a day (and of a new zone:
+    // summer time), "-- 2026-11-21 UTC" in UTC, "-- 2024-05-01" for a date read without a
+    // zone; "-- day 2 ..." where a log's times of day go past midnight.
+    void append_day_line(std::string& line, bool local) {
+        const bool same_day = day_shown_ && shown_.date.year == local_.date.year &&
+                              shown_.date.month == local_.date.month &&
+                              shown_.date.day == local_.date.day;
+        if (base_ == TimeBase::time_of_day) {
+            if (!day_shown_) {
+                day_shown_ = true;
+                shown_ = local_;
+                return;  // the log's first day, which has no date to show
+            }
+            if (same_day) return;
+            shown_ = local_;
+            fmt::format_to(std::back_inserter(line), "-- day {} (the log's times have no date)\n",
+                           local_day_ + 1);
+            return;
+        }
+        if (same_day && (!local || shown_.zone == local_.zone)) return;
+        day_shown_ = true;
+        shown_ = local_;
+        line += "-- "sv;
+        append_with(line, 10, [&](char* p) { return write_date(p, local_.date); });
+        if (base_ == TimeBase::wall_clock) {
+            line += '\n';
+            return;
+        }
+        if (!local) {
+            line += " UTC\n"sv;
+            return;
+        }
+        const std::int64_t offset = local_.utc_offset;
+        const std::int64_t minutes = (offset < 0 ? -offset : offset) / 60;
+        if (local_.zone[0] != '\0') {
+            line += ' ';
+            line += local_.zone.data();
+        }
+        if (offset == 0 && std::string_view(local_.zone.data()) == "UTC") {
+            line += '\n';
+            return;
+        }
+        fmt::format_to(std::back_inserter(line), " (UTC{}{:02}:{:02})\n", offset < 0 ? '-' : '+',
+                       minutes / 60, minutes % 60);
     }
 
     static fmt::terminal_color colour_of(const Record& r) {
@@ -278,6 +383,17 @@ class TextSink final : public RecordSink {
     std::string notes_text_;
     Nanos first_ = kNoTime;
     Nanos previous_ = kNoTime;
+    // The time column: what the times are, its width, the indent under a record.
+    TimeBase base_ = TimeBase::none;
+    std::size_t time_width_ = kTimeColumn;
+    std::string indent_;
+    // The last record's date and time of day, worked out again only when its second (its
+    // day, outside the local zone) changes; and the date the last day line showed.
+    LocalTime local_;
+    std::int64_t local_second_ = std::numeric_limits<std::int64_t>::min();
+    std::int64_t local_day_ = std::numeric_limits<std::int64_t>::min();
+    LocalTime shown_;
+    bool day_shown_ = false;
 };
 
 }  // namespace

@@ -1,6 +1,6 @@
 # Runs one golden test, one line of MANIFEST: `rtuscope decode INPUT OPTIONS...` from the
-# working directory, its standard output compared byte for byte with GOLDEN_DIR/NAME and
-# its exit status with EXPECTED_RC. The output goes to OUT_DIR/NAME; on a difference it
+# working directory with TZ=UTC (the text shows local time), its standard output compared
+# byte for byte with GOLDEN_DIR/NAME and its exit status with EXPECTED_RC. The output goes to OUT_DIR/NAME; on a difference it
 # stays there and a unified diff is printed, otherwise it is removed.
 #   RTUSCOPE     the binary              NAME     the expected file's name
 #   INPUT        the input               OPTIONS  rtuscope's options, a ;-list
@@ -14,6 +14,7 @@ set(command "rtuscope decode ${INPUT} ${shown_options}")
 set(expected_file ${GOLDEN_DIR}/${NAME})
 set(actual_file ${OUT_DIR}/${NAME})
 file(MAKE_DIRECTORY ${OUT_DIR})
+set(ENV{TZ} UTC)
 execute_process(COMMAND ${RTUSCOPE} decode ${INPUT} ${OPTIONS}
   OUTPUT_FILE ${actual_file} ERROR_VARIABLE errors RESULT_VARIABLE rc)
 
