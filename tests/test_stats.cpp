@@ -736,8 +736,8 @@ TEST(StatsTurnaround, BinnedPercentilesAreMarkedInEveryFormat) {
 
     const std::string text = render_stats(s, StatsFormat::text);
     EXPECT_NE(text.find("note: ~ marks a percentile counted in bins (more than 1024 distinct "
-                        "turnarounds in a row or cycles of a poll): up to one bin (0.008 ms at "
-                        "most) below the exact figure\n"),
+                        "turnarounds in a row or cycles of a poll): up to one bin below the "
+                        "exact figure, here at most 0.008 ms and 0.1 % of it\n"),
               std::string::npos)
         << text;
     EXPECT_NE(text.find("5000  ~6.50  ~8.74  ~8.94  9.00  100.00   100.00\n"), std::string::npos)

@@ -98,16 +98,6 @@ std::string bin_ms(const DurationCounts* values, std::string_view unknown) {
     return ms(values->bin_width(), 3, unknown);
 }
 
-// The widest bin behind any percentile the text output shows (0: all exact).
-Nanos widest_bin(const BusStats& stats) {
-    Nanos widest = stats.all().turnarounds.bin_width();
-    for (const auto& [key, s] : stats.functions()) {
-        widest = std::max(widest, s.turnarounds.bin_width());
-    }
-    for (const auto& [key, p] : stats.polls()) widest = std::max(widest, p.cycles.bin_width());
-    return widest;
-}
-
 // The entry a row's frames were decoded by: the device's own where its profile has one.
 const FunctionSpec& function_of(const BusStats& stats, std::uint8_t slave, std::uint8_t code) {
     const auto row = stats.functions().find({slave, code});
@@ -190,6 +180,77 @@ std::vector<T> busiest(std::vector<T> items, std::size_t top, Weight weight) {
     return kept;
 }
 
+// What the text lists: the busiest rows that are bus traffic, the busiest polls that
+// keep a rhythm; the rest is counted.
+struct TextSelection {
+    using Row = const std::pair<const BusStats::Key, FunctionStats>*;
+    using Poll = const std::pair<const PollKey, PollStats>*;
+    std::vector<Row> traffic;  // rows where something was asked or answered
+    std::vector<Row> shown;
+    std::uint64_t junk_rows = 0;  // rows of garbled invalid frames only
+    std::uint64_t junk_crc_errors = 0;
+    std::vector<Poll> cyclic;  // polls whose repeats keep a rhythm
+    std::vector<Poll> listed;
+    std::uint64_t irregular = 0;
+};
+
+TextSelection select_for_text(const BusStats& stats, std::size_t top) {
+    TextSelection sel;
+    for (const auto& row : stats.functions()) {
+        if (is_traffic(row.second)) {
+            sel.traffic.push_back(&row);
+        } else {
+            ++sel.junk_rows;
+            sel.junk_crc_errors += row.second.crc_errors;
+        }
+    }
+    sel.shown = busiest(sel.traffic, top, [](TextSelection::Row r) { return frames_of(r->second); });
+    if (!stats.timed()) return sel;
+    for (const auto& poll : stats.polls()) {
+        if (poll.second.cycles.empty()) continue;
+        if (regular(poll.second.cycles)) {
+            sel.cyclic.push_back(&poll);
+        } else {
+            ++sel.irregular;
+        }
+    }
+    sel.listed =
+        busiest(sel.cyclic, top, [](TextSelection::Poll p) { return p->second.requests; });
+    return sel;
+}
+
+// How far below the exact figure a binned percentile the text shows can be: the widest
+// bin, and the largest share of its figure a bin takes (0, 0: all exact).
+struct BinBound {
+    Nanos widest = 0;
+    double share = 0;
+    void add(const DurationCounts& counts, std::initializer_list<unsigned> percents) {
+        if (counts.bin_width() == 0) return;
+        widest = std::max(widest, counts.bin_width());
+        for (unsigned percent : percents) {
+            const auto figure = counts.percentile(percent);
+            if (figure && *figure > 0) {
+                share = std::max(share, static_cast<double>(counts.bin_width()) /
+                                            static_cast<double>(*figure));
+            }
+        }
+    }
+};
+
+BinBound bin_bound(const BusStats& stats, const TextSelection& sel) {
+    BinBound bound;
+    const auto add_row = [&](std::optional<BusStats::Key> key, const FunctionStats& s) {
+        bound.add(s.turnarounds, {50, 95, 99});
+        if (const auto* poll = stats.main_poll(key); poll != nullptr && regular(poll->second.cycles)) {
+            bound.add(poll->second.cycles, {50});
+        }
+    };
+    for (TextSelection::Row row : sel.shown) add_row(row->first, row->second);
+    add_row(std::nullopt, stats.all());
+    for (TextSelection::Poll poll : sel.listed) bound.add(poll->second.cycles, {50});
+    return bound;
+}
+
 void write_text(const BusStats& stats, const std::vector<std::string>& remarks, Pieces& pieces,
                 std::size_t top) {
     const SessionInfo& session = stats.session();
@@ -231,12 +292,13 @@ void write_text(const BusStats& stats, const std::vector<std::string>& remarks, 
         out += "no timing: turnaround, utilisation and cycle unknown\n";
     }
     for (const std::string& remark : remarks) out += fmt::format("note: {}\n", remark);
-    if (const Nanos widest = widest_bin(stats); widest != 0) {
+    const TextSelection sel = select_for_text(stats, top);
+    if (const BinBound bound = bin_bound(stats, sel); bound.widest != 0) {
         out += fmt::format(
             "note: ~ marks a percentile counted in bins (more than {} distinct turnarounds in "
-            "a row or cycles of a poll): up to one bin ({} ms at most) below the exact "
-            "figure\n",
-            stats.bins_each(), ms(widest, 3, ""));
+            "a row or cycles of a poll): up to one bin below the exact figure, here at most "
+            "{} ms and {:.1f} % of it\n",
+            stats.bins_each(), ms(bound.widest, 3, ""), 100 * bound.share);
     }
     if (stats.unlisted_exceptions() != 0) {
         out += fmt::format(
@@ -258,20 +320,9 @@ void write_text(const BusStats& stats, const std::vector<std::string>& remarks, 
         "exc + broken\n(an answer with a bad CRC or cut short) + no ans; p50..max: turnaround "
         "over the n measured\nanswers; cycle: of the slave's most frequent poll for that "
         "function):\n";
-    using Row = const std::pair<const BusStats::Key, FunctionStats>*;
-    std::vector<Row> traffic;
-    std::uint64_t junk_rows = 0;
-    std::uint64_t junk_crc_errors = 0;
-    for (const auto& row : stats.functions()) {
-        if (is_traffic(row.second)) {
-            traffic.push_back(&row);
-        } else {
-            ++junk_rows;
-            junk_crc_errors += row.second.crc_errors;
-        }
-    }
-    const std::vector<Row> shown =
-        busiest(traffic, top, [](Row r) { return frames_of(r->second); });
+    using Row = TextSelection::Row;
+    const std::vector<Row>& traffic = sel.traffic;
+    const std::vector<Row>& shown = sel.shown;
     const auto row_cells = [&](const RowFigures& f) {
         const FunctionStats& c = *f.counts;
         const bool irregular = f.cycles != nullptr && !f.cycles->empty() && !regular(*f.cycles);
@@ -312,12 +363,12 @@ void write_text(const BusStats& stats, const std::vector<std::string>& remarks, 
                            plural(traffic.size() - shown.size(), "row", "rows"), frames,
                            plural(frames, "frame", "frames"));
     }
-    if (junk_rows != 0) {
+    if (sel.junk_rows != 0) {
         out += fmt::format(
             "  invalid frames that are no bus traffic (their address or function code "
             "garbled): {} {} under {} {}, in the all row\n",
-            junk_crc_errors, plural(junk_crc_errors, "CRC error", "CRC errors"), junk_rows,
-            plural(junk_rows, "slave and function", "slaves and functions"));
+            sel.junk_crc_errors, plural(sel.junk_crc_errors, "CRC error", "CRC errors"),
+            sel.junk_rows, plural(sel.junk_rows, "slave and function", "slaves and functions"));
     }
     pieces.line_done();
 
@@ -353,21 +404,9 @@ void write_text(const BusStats& stats, const std::vector<std::string>& remarks, 
 
     // Polls whose repeats keep a rhythm, the busiest first: a bus with varying writes or
     // requests sent by hand would otherwise list every one of them.
-    if (!stats.timed()) return;
-    using Poll = const std::pair<const PollKey, PollStats>*;
-    std::vector<Poll> cyclic;
-    std::uint64_t irregular = 0;
-    for (const auto& poll : stats.polls()) {
-        if (poll.second.cycles.empty()) continue;
-        if (regular(poll.second.cycles)) {
-            cyclic.push_back(&poll);
-        } else {
-            ++irregular;
-        }
-    }
-    if (cyclic.empty() && irregular == 0) return;
-    const std::vector<Poll> listed =
-        busiest(cyclic, top, [](Poll p) { return p->second.requests; });
+    if (sel.cyclic.empty() && sel.irregular == 0) return;
+    using Poll = TextSelection::Poll;
+    const std::vector<Poll>& listed = sel.listed;
     out += "\npolls (times in ms):\n";
     if (!listed.empty()) {
         const auto polls = [&](const auto& emit) {
@@ -382,13 +421,14 @@ void write_text(const BusStats& stats, const std::vector<std::string>& remarks, 
         };
         table(pieces, {true, true, false, true, true, true}, polls);
     }
-    if (listed.size() < cyclic.size()) {
-        out += fmt::format("  ... {} more (--top 0 lists them)\n", cyclic.size() - listed.size());
+    if (listed.size() < sel.cyclic.size()) {
+        out += fmt::format("  ... {} more (--top 0 lists them)\n",
+                           sel.cyclic.size() - listed.size());
     }
-    if (irregular != 0) {
+    if (sel.irregular != 0) {
         out += fmt::format(
             "  {} {} irregularly (p95 of the intervals above twice the median): no cycle\n",
-            irregular, plural(irregular, "request repeats", "requests repeat"));
+            sel.irregular, plural(sel.irregular, "request repeats", "requests repeat"));
     }
 }
 
