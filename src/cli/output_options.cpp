@@ -90,6 +90,8 @@ void add_output_options(CLI::App& cmd, OutputArgs& args) {
                    "read without a zone show as read")
         ->check(CLI::IsMember({"a", "ad", "u", "ud", "r", "d", "e"}));
     cmd.add_flag("--hex", args.hex, "Show the raw bytes of every frame (text output)");
+    cmd.add_flag("--no-values", args.no_values,
+                 "Hide the register values under the frames (text output)");
     cmd.add_flag("--no-color", args.no_color,
                  "No colour (also off when NO_COLOR is set or stdout is not a terminal)");
     add_filter_options(cmd, args);
@@ -269,6 +271,8 @@ std::optional<Decoding> prepare_decoding(const OutputArgs& args, int& exit_code,
     } else {
         TextOptions text;
         text.hex = args.hex;
+        text.values = !args.no_values;
+        text.fit_terminal = isatty(STDOUT_FILENO) != 0;
         text.color = !args.no_color && std::getenv("NO_COLOR") == nullptr && isatty(STDOUT_FILENO);
         text.time_format = time_format(args.time_format);
         d.sink = make_text_sink(stdout, text);

@@ -34,6 +34,7 @@ struct OutputArgs {
     double timeout_s = 1.0;
     std::string time_format = "a";
     bool hex = false;
+    bool no_values = false;
     bool no_color = false;
     BusArgs bus;
 };

@@ -30,6 +30,12 @@ struct TextOptions {
     bool color = false;
     bool hex = false;  // the raw bytes of every record on a line of their own
     TimeFormat time_format = TimeFormat::local;
+    bool values = true;  // the register values under their frame
+    // Columns to fit: values packed side by side, frame lines cut with "…", bytes of
+    // --hex wrapped. 0: one value per line, lines whole (for pipes and files).
+    std::size_t width = 0;
+    // Fit stdout's terminal instead, following its resizes (over `width`).
+    bool fit_terminal = false;
 };
 
 std::unique_ptr<RecordSink> make_text_sink(std::FILE* out, TextOptions options);

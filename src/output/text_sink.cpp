@@ -5,11 +5,13 @@
 
 #include <algorithm>
 #include <limits>
+#include <optional>
 #include <span>
 
 #include "output/block_output.hpp"
 #include "output/fields.hpp"
 #include "output/sinks.hpp"
+#include "util/terminal.hpp"
 #include "util/text.hpp"
 #include "util/time.hpp"
 
@@ -21,10 +23,15 @@ namespace {
 using namespace std::string_view_literals;
 
 constexpr std::size_t kNoiseBytesShown = 16;
-// The time column's width ("08:00:00.001667"), and the indent of the lines under a record
-// when the column has that width.
+// The record number's width up to 99,999 (wider numbers widen the column from there on);
+// the time column's width ("08:00:00.001667"); the indent of the lines under a record
+// with those widths.
+constexpr std::size_t kNumberColumn = 5;
 constexpr std::size_t kTimeColumn = 15;
 constexpr std::size_t kUnderIndent = 28;
+// Packed values start at tab stops this many columns apart, so that they line up from
+// one record to the next.
+constexpr std::size_t kValueTab = 10;
 
 // "2026-11-21"
 char* write_date(char* p, const CivilDate& date) {
@@ -68,7 +75,9 @@ const char* arrow(const Record& r) {
 
 class TextSink final : public RecordSink {
   public:
-    TextSink(std::FILE* out, TextOptions options) : out_(out), options_(options) {}
+    TextSink(std::FILE* out, TextOptions options) : out_(out), options_(options) {
+        if (options_.fit_terminal) terminal_.emplace(fileno(out));
+    }
 
     void begin(const SessionInfo& s) override {
         base_ = s.source.time_base;
@@ -90,9 +99,15 @@ class TextSink final : public RecordSink {
 
     void record(const Record& r) override {
         std::string& line = out_.line();
+        width_ = terminal_ ? terminal_->columns() : options_.width;
         time_text_.clear();
         append_time_column(line, time_text_, r.frame.start);
-        append_padded(line, r.number, 5);
+        const std::size_t line_start = line.size();  // after the date line, if any
+        if (const std::size_t digits = decimal_digits(r.number); digits > number_width_) {
+            number_width_ = digits;  // the lines under records move with the column
+            indent_.clear();
+        }
+        append_padded(line, r.number, number_width_);
         line += ' ';
         append_padded(line, time_text_, time_width_, true);
         line += "  "sv;
@@ -125,7 +140,9 @@ class TextSink final : public RecordSink {
         append_padded(column_, function, 30, false);
         append_painted(line, column_, colour_of(r));
         line += ' ';
+        const std::size_t summary_at = line.size();
         line += summary;
+        const std::size_t tail_at = line.size();
         if (r.kind == Kind::broadcast) line += "  (broadcast, no answer expected)"sv;
         if (has_time(r.latency)) {
             append_with(line, kMaxMillisChars + kMaxUintChars + 16, [&](char* p) {
@@ -138,16 +155,28 @@ class TextSink final : public RecordSink {
             line += "  answers #"sv;
             append_uint(line, r.request_number);
         }
+        const std::size_t notes_at = line.size();
         append_notes(line, r.notes);
         // Trailing spaces come from padding a short last column.
         while (!line.empty() && line.back() == ' ') line.pop_back();
-        line += '\n';
-        if (options_.hex && framed) {
-            line.append(kUnderIndent + time_width_ - kTimeColumn, ' ');
-            append_hex(line, r.frame.bytes, true);
-            line += '\n';
+        if (indent_.empty()) {
+            indent_.assign(kUnderIndent + (time_width_ - kTimeColumn) +
+                               (number_width_ - kNumberColumn),
+                           ' ');
         }
-        append_values(line, r.values);
+        if (width_ != 0) {
+            fit_record_line(line, line_start, summary_at, std::min(tail_at, line.size()),
+                            std::min(notes_at, line.size()));
+        }
+        line += '\n';
+        if (options_.hex && framed) append_hex_lines(line, r.frame.bytes);
+        if (options_.values) {
+            if (width_ == 0) {
+                append_values(line, r.values);
+            } else {
+                append_packed_values(line, r.values);
+            }
+        }
         out_.record_done();
         if (has_time(r.frame.start)) previous_ = r.frame.start;
     }
@@ -179,55 +208,148 @@ class TextSink final : public RecordSink {
     }
 
   private:
-    // One line per value under its frame; registers the profile does not list are
-    // gathered into runs, as devices often fill unused ranges with zeros.
+    // Cuts the record's line (from `start`) to the width: its summary first, so that the
+    // turnaround and the notes after it stay in view. Notes that still do not fit go on a
+    // line of their own under it; what does not fit then is cut.
+    void fit_record_line(std::string& line, std::size_t start, std::size_t summary_at,
+                         std::size_t tail_at, std::size_t notes_at) {
+        const auto width_of = [&](std::size_t from, std::size_t to) {
+            return display_width(std::string_view(line).substr(from, to - from));
+        };
+        if (width_of(start, line.size()) <= width_) return;
+        // A summary cut to a few columns says nothing.
+        constexpr std::size_t kShortestSummary = 12;
+        std::size_t fixed = width_of(start, summary_at) + width_of(tail_at, line.size());
+        notes_line_.clear();
+        if (fixed + kShortestSummary > width_ && notes_at < line.size()) {
+            notes_line_ = indent_;
+            notes_line_.append(line, notes_at + 2);  // without the two spaces before "!"
+            fixed -= width_of(notes_at, line.size());
+            line.resize(notes_at);
+        }
+        tail_.assign(line, tail_at);
+        line.resize(tail_at);
+        if (fixed + kShortestSummary <= width_) cut_to_width(line, width_ - fixed, summary_at);
+        line += tail_;
+        cut_to_width(line, width_, start);
+        if (!notes_line_.empty()) {
+            cut_to_width(notes_line_, width_);
+            line += '\n';
+            line += notes_line_;
+        }
+    }
+
+    static std::size_t decimal_digits(std::uint64_t n) {
+        std::size_t digits = 1;
+        for (; n >= 10; n /= 10) ++digits;
+        return digits;
+    }
+
+    // The registers from values[i] on that the profile does not list, as one run:
+    // devices often fill unused ranges with zeros. Returns the end of the run.
+    static std::size_t append_unlisted_run(std::string& out, std::span<const DecodedValue> values,
+                                           std::size_t i) {
+        std::size_t end = i;
+        bool all_zero = true;
+        while (end < values.size() && values[end].name.empty()) {
+            all_zero = all_zero && values[end].value == "0";
+            ++end;
+        }
+        const std::size_t n = end - i;
+        append_hex4(out, values[i].address);
+        if (n > 1) {
+            out += ".."sv;
+            append_hex4(out, values[end - 1].address);
+        }
+        out += " not in the profile: "sv;
+        if (all_zero && n > 1) {
+            append_uint(out, n);
+            out += " registers, all 0"sv;
+        } else {
+            for (std::size_t k = i; k < end; ++k) {
+                if (k > i) out += ' ';
+                out += values[k].raw;
+            }
+        }
+        return end;
+    }
+
+    // "voltage = 220.5 V", its notes after it.
+    void append_value(std::string& out, const DecodedValue& v, std::size_t name_width) {
+        append_padded(out, v.name, name_width, false);
+        out += " = "sv;
+        out += v.value.empty() ? "?"sv : std::string_view(v.value);
+        if (!v.unit.empty() && !v.value.empty()) {
+            out += ' ';
+            out += v.unit;
+        }
+    }
+
+    // One line per value under its frame, with its raw registers: the layout for pipes
+    // and files, one value a line for grep and diff.
     void append_values(std::string& out, std::span<const DecodedValue> values) {
-        if (indent_.empty()) indent_.assign(kUnderIndent + time_width_ - kTimeColumn, ' ');
-        const std::string_view indent = indent_;
         for (std::size_t i = 0; i < values.size();) {
-            const DecodedValue& v = values[i];
-            if (v.name.empty()) {
-                std::size_t end = i;
-                bool all_zero = true;
-                while (end < values.size() && values[end].name.empty()) {
-                    all_zero = all_zero && values[end].value == "0";
-                    ++end;
-                }
-                const std::size_t n = end - i;
-                out += indent;
-                append_hex4(out, v.address);
-                if (n > 1) {
-                    out += ".."sv;
-                    append_hex4(out, values[end - 1].address);
-                }
-                out += " not in the profile: "sv;
-                if (all_zero && n > 1) {
-                    append_uint(out, n);
-                    out += " registers, all 0"sv;
-                } else {
-                    for (std::size_t k = i; k < end; ++k) {
-                        if (k > i) out += ' ';
-                        out += values[k].raw;
-                    }
-                }
-                out += '\n';
-                i = end;
-                continue;
+            out += indent_;
+            if (values[i].name.empty()) {
+                i = append_unlisted_run(out, values, i);
+            } else {
+                append_value(out, values[i], 16);
+                out += " (raw "sv;
+                out += values[i].raw;
+                out += ')';
+                append_notes(out, values[i].notes);
+                ++i;
             }
-            out += indent;
-            append_padded(out, v.name, 16, false);
-            out += " = "sv;
-            out += v.value.empty() ? "?"sv : std::string_view(v.value);
-            if (!v.unit.empty() && !v.value.empty()) {
-                out += ' ';
-                out += v.unit;
-            }
-            out += " (raw "sv;
-            out += v.raw;
-            out += ')';
-            append_notes(out, v.notes);
             out += '\n';
-            ++i;
+        }
+    }
+
+    // The values side by side at tab stops, as many as the width takes (a poll of 30
+    // registers in a few lines rather than 30); a value wider than the line is cut.
+    void append_packed_values(std::string& out, std::span<const DecodedValue> values) {
+        const std::size_t room = width_ > indent_.size() ? width_ - indent_.size() : 0;
+        std::size_t used = 0;  // columns of the line being filled, past the indent
+        for (std::size_t i = 0; i < values.size();) {
+            entry_.clear();
+            if (values[i].name.empty()) {
+                i = append_unlisted_run(entry_, values, i);
+            } else {
+                append_value(entry_, values[i], 0);
+                append_notes(entry_, values[i].notes);
+                ++i;
+            }
+            const std::size_t columns = display_width(entry_);
+            // Two spaces at least between values.
+            const std::size_t at = (used + 2 + kValueTab - 1) / kValueTab * kValueTab;
+            if (used != 0 && at + columns <= room) {
+                out.append(at - used, ' ');
+                used = at;
+            } else {
+                if (used != 0) out += '\n';
+                out += indent_;
+                used = 0;
+            }
+            const std::size_t line_start = out.size() - (used == 0 ? indent_.size() : 0);
+            out += entry_;
+            used += columns;
+            if (used > room) {
+                cut_to_width(out, width_, line_start);
+                used = room;
+            }
+        }
+        if (!values.empty()) out += '\n';
+    }
+
+    // The frame's bytes under it, wrapped at the width.
+    void append_hex_lines(std::string& out, std::span<const std::uint8_t> bytes) {
+        const std::size_t room = width_ > indent_.size() ? width_ - indent_.size() : 0;
+        const std::size_t per_line =
+            width_ == 0 ? bytes.size() : std::max<std::size_t>(1, (room + 1) / 3);
+        for (std::size_t at = 0; at < bytes.size() || at == 0; at += per_line) {
+            out += indent_;
+            append_hex(out, bytes.subspan(at, std::min(per_line, bytes.size() - at)), true);
+            out += '\n';
+            if (bytes.empty()) break;
         }
     }
 
@@ -381,12 +503,19 @@ class TextSink final : public RecordSink {
     std::string noise_function_;
     std::string noise_summary_;
     std::string notes_text_;
+    std::string entry_;
+    std::string tail_;
+    std::string notes_line_;
     Nanos first_ = kNoTime;
     Nanos previous_ = kNoTime;
-    // The time column: what the times are, its width, the indent under a record.
+    // The columns: what the times are, the widths, the indent under a record; the width
+    // to fit (0: none).
     TimeBase base_ = TimeBase::none;
+    std::size_t number_width_ = kNumberColumn;
     std::size_t time_width_ = kTimeColumn;
     std::string indent_;
+    std::optional<TerminalWidth> terminal_;
+    std::size_t width_ = 0;
     // The last record's date and time of day, worked out again only when its second (its
     // day, outside the local zone) changes; and the date the last day line showed.
     LocalTime local_;
