@@ -394,6 +394,9 @@ TEST(PcapWriter, WritesHeaderAndExportedPduTags) {
                              std::string("\0\x18\0\x04\0\0\0\x02", 8) +    // TCP
                              std::string("\0\x19\0\x04\0\0\xC0\x00", 8) +  // 49152
                              std::string("\0\x1A\0\x04\0\0\x01\xF6", 8) +  // 502
+                             // rtuscope's timing: 8,333,328 ns, the first frame (no
+                             // silence before it: the top bit)
+                             std::string("\xF2\xA5\0\x08\x80\0\0\0\0\x7F\x28\x10", 12) +
                              std::string("\0\0\0\0", 4) + str(kRequest);
     put32(want, static_cast<std::uint32_t>(tags.size()));
     put32(want, static_cast<std::uint32_t>(tags.size()));
@@ -768,7 +771,7 @@ TEST(PcapRoundTrip, RecordsWrittenAndReadBackKeepBytesTimesAndDirections) {
 }
 
 // Every bundled capture decoded with --pcap and the pcap decoded again: the same frames,
-// times, directions and pairs. A pcap carries no noise, so the frames are compared in
+// times (start and end), directions, pairs and turnarounds. A pcap carries no noise, so the frames are compared in
 // order and a pair by the frames' positions.
 struct FrameSeen {
     Bytes bytes;
@@ -776,6 +779,7 @@ struct FrameSeen {
     Kind kind = Kind::noise;
     std::ptrdiff_t request = -1;  // position of the frame it answers, -1 for none
     Nanos latency = kNoTime;
+    Nanos end = kNoTime;
 };
 
 std::vector<FrameSeen> frames_of(const std::string& path, const std::string& pcap_out) {
@@ -817,7 +821,7 @@ std::vector<FrameSeen> frames_of(const std::string& path, const std::string& pca
     for (const Record& r : collect.records) {
         if (r.kind == Kind::noise) continue;
         position[r.number] = static_cast<std::ptrdiff_t>(frames.size());
-        FrameSeen f{r.frame.bytes, r.frame.start, r.kind, -1, r.latency};
+        FrameSeen f{r.frame.bytes, r.frame.start, r.kind, -1, r.latency, r.frame.end};
         if (r.request_number != 0) f.request = position[r.request_number];
         frames.push_back(f);
     }
@@ -846,6 +850,8 @@ TEST(PcapRoundTrip, EveryBundledCaptureKeepsFramesTimesDirectionsAndPairs) {
             EXPECT_EQ(after[i].request, before[i].request);
             if (timed) {
                 EXPECT_EQ(after[i].start, before[i].start);
+                EXPECT_EQ(after[i].end, before[i].end);
+                EXPECT_EQ(after[i].latency, before[i].latency);
             }
         }
         ++captures;

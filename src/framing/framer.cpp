@@ -748,7 +748,9 @@ void Framer::emit_chunk_as_frame(const Chunk& chunk) {
     frame.start = kNoTime;
     frame.silence_before = kNoTime;
     frame.bytes = chunk.bytes;
-    const Nanos duration = static_cast<Nanos>(chunk.bytes.size()) * char_time_;
+    const Nanos duration = has_time(chunk.duration)
+                               ? chunk.duration
+                               : static_cast<Nanos>(chunk.bytes.size()) * char_time_;
     frame.end = chunk.time;
     if (has_time(chunk.time)) {
         if (options_.chunk_time_is_start) {
@@ -758,7 +760,8 @@ void Framer::emit_chunk_as_frame(const Chunk& chunk) {
             frame.start = chunk.time - duration;
         }
     }
-    if (has_time(frame.start) && has_time(last_end_) && frame.start >= last_end_) {
+    if (has_time(frame.start) && has_time(last_end_) && frame.start >= last_end_ &&
+        !chunk.time_estimated) {
         frame.silence_before = frame.start - last_end_;
     }
     if (has_time(frame.end)) {

@@ -30,6 +30,13 @@ struct Chunk {
     // line that holds one frame by length and CRC); otherwise they are bytes of the
     // stream, for the framer to cut (a frame over several chunks, several in one).
     bool whole_frame = false;
+    // Whole frames: how long the frame took on the line, first byte's start to last
+    // byte's end, when the source knows it (a pcap rtuscope wrote); else the character
+    // time of the line settings gives it.
+    Nanos duration = kNoTime;
+    // Whole frames: the time is an estimate (the frame was found inside a chunk a USB
+    // adapter delivered with others), so the silence before it is not known.
+    bool time_estimated = false;
 };
 
 // What a source knows about itself once its header (if any) has been read.

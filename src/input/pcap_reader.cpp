@@ -45,6 +45,10 @@ constexpr std::uint16_t kTagDissectorName = 12;
 constexpr std::uint16_t kTagHeuristicName = 13;
 constexpr std::uint16_t kTagSrcPort = 25;
 constexpr std::uint16_t kTagDstPort = 26;
+// rtuscope's own (output/pcap_writer.cpp): the frame's duration, the top bit set when its
+// start is an estimate.
+constexpr std::uint16_t kTagFrameTiming = 0xF2A5;
+constexpr std::uint64_t kTimeEstimated = std::uint64_t{1} << 63U;
 constexpr std::size_t kRtacHeaderBytes = 12;  // secs, usecs, event, control lines, footer
 
 std::uint16_t be16(Bytes b, std::size_t at) {
@@ -87,6 +91,8 @@ struct Extracted {
     Bytes frame;
     std::string_view channel;  // "master", "slave" or none
     std::string skipped;       // non-empty: no frame, and why
+    Nanos duration = kNoTime;  // the frame's time on the line, when the packet says
+    bool time_estimated = false;
 };
 
 Extracted skip(std::string why) {
@@ -153,6 +159,8 @@ Result<Extracted> exported_pdu_payload(Bytes p, std::uint64_t number) {
     std::string_view name;
     std::uint32_t src = 0;
     std::uint32_t dst = 0;
+    Nanos duration = kNoTime;
+    bool estimated = false;
     for (;;) {
         if (at + 4 > p.size()) {
             return Error{fmt::format("packet {}: exported-PDU tags without an end tag", number)};
@@ -174,6 +182,14 @@ Result<Extracted> exported_pdu_payload(Bytes p, std::uint64_t number) {
             src = be32(value, 0);
         } else if (tag == kTagDstPort && length >= 4) {
             dst = be32(value, 0);
+        } else if (tag == kTagFrameTiming && length == 8) {
+            const std::uint64_t timing = (std::uint64_t{be32(value, 0)} << 32U) | be32(value, 4);
+            const std::uint64_t ns = timing & ~kTimeEstimated;
+            // Longer than any frame at any rate (256 bytes at 50 baud take 57 s): not ours.
+            if (ns <= std::uint64_t{60} * kNanosPerSecond) {
+                duration = static_cast<Nanos>(ns);
+                estimated = (timing & kTimeEstimated) != 0;
+            }
         }
     }
     // "mbrtu" (over TCP) and "mbrtu_udp" hold whole RTU frames. "modbus" and "mbtcp"
@@ -183,7 +199,7 @@ Result<Extracted> exported_pdu_payload(Bytes p, std::uint64_t number) {
             fmt::format("exported PDUs for another dissector ({})", detail::quote_token(name)));
     }
     if (at == p.size()) return skip("exported PDUs without data");
-    return Extracted{p.subspan(at), channel_for_ports(src, dst), {}};
+    return Extracted{p.subspan(at), channel_for_ports(src, dst), {}, duration, estimated};
 }
 
 // The frame in one packet of link type `dlt`.
@@ -353,6 +369,8 @@ class PcapSource final : public ChunkSource {
             out.source_line = 0;
             out.char_errors.clear();
             out.whole_frame = true;  // one packet, one frame
+            out.duration = got->duration;
+            out.time_estimated = got->time_estimated;
             return true;
         }
     }

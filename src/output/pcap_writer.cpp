@@ -20,6 +20,12 @@ constexpr std::uint16_t kTagDissectorName = 12;  // EXP_PDU_TAG_DISSECTOR_NAME (
 constexpr std::uint16_t kTagPortType = 24;
 constexpr std::uint16_t kTagSrcPort = 25;
 constexpr std::uint16_t kTagDstPort = 26;
+// rtuscope's own tag, far above Wireshark's (0-38; Wireshark shows it as an unknown tag),
+// so that a frame read back is timed as it was and turnarounds stay what they were: 64
+// bits, the frame's duration on the line in nanoseconds, the top bit set when its start
+// is an estimate (no silence before it measured).
+constexpr std::uint16_t kTagFrameTiming = 0xF2A5;
+constexpr std::uint64_t kTimeEstimated = std::uint64_t{1} << 63U;
 constexpr std::uint32_t kPortTypeTcp = 2;  // EXP_PDU_PT_TCP
 constexpr std::uint32_t kNanosecondMagic = 0xA1B23C4D;
 constexpr std::uint32_t kSnapLen = 65535;
@@ -119,6 +125,15 @@ void append_pcap_packet(std::vector<std::uint8_t>& out, const Record& record) {
     put_u32_tag(out, kTagPortType, kPortTypeTcp);
     put_u32_tag(out, kTagSrcPort, src);
     put_u32_tag(out, kTagDstPort, dst);
+    if (has_time(record.frame.start) && has_time(record.frame.end) &&
+        record.frame.end >= record.frame.start) {
+        std::uint64_t timing = static_cast<std::uint64_t>(record.frame.end - record.frame.start);
+        if (!has_time(record.frame.silence_before)) timing |= kTimeEstimated;
+        put16be(out, kTagFrameTiming);
+        put16be(out, 8);
+        put32be(out, static_cast<std::uint32_t>(timing >> 32U));
+        put32be(out, static_cast<std::uint32_t>(timing));
+    }
     put_tag(out, kTagEndOfOpt, {});
     out.insert(out.end(), record.frame.bytes.begin(), record.frame.bytes.end());
 }
