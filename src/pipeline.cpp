@@ -134,8 +134,9 @@ Status run_pipeline(ChunkSource& source, const PipelineOptions& options, RecordS
         line_check.chunk(chunk);
         framer.push(chunk);
     }
-    // A live input does not end: it is stopped, and what was on the line then is cut.
-    const bool stopped = options.live || stop_requested();
+    // A live input does not end: it is stopped, and what was on the line then is cut; so
+    // does a capture of a live run.
+    const bool stopped = options.live || stop_requested() || source.ended_by_stop();
     framer.finish(stopped);
     transactions.finish(stopped);
     totals.remarks = source.remarks();

@@ -270,9 +270,12 @@ class CaptureReader final : public ChunkSource {
                 if (*comment) continue;
             }
             if (!data_line(line, out)) return *failed_;
+            stopped_here_ = false;  // a `# stopped` line counts only at the end
             return true;
         }
     }
+
+    [[nodiscard]] bool ended_by_stop() const override { return at_end_ && stopped_here_; }
 
   private:
     // The first three words after the '#' of a comment line; false if it is no comment.
@@ -341,6 +344,10 @@ class CaptureReader final : public ChunkSource {
         std::size_t e = token_end(line, i);
         const std::string_view word = line.substr(i, e - i);
         if (in_header_ && word != "serial") return header_comment(line, word, e);
+        if (word == "stopped") {
+            stopped_here_ = true;
+            return true;
+        }
         if (word != "serial") return true;
 
         const auto missing = [&](std::size_t at) {
@@ -526,6 +533,7 @@ class CaptureReader final : public ChunkSource {
     bool has_pending_ = false;
     bool at_end_ = false;
     bool in_header_ = true;             // before the first data line
+    bool stopped_here_ = false;         // the last line was `# stopped`
     std::string* embedding_ = nullptr;  // the profile text `#|` lines go to, in the header
     std::optional<Error> failed_;       // errors stick: the reader cannot tell where to go on
 };

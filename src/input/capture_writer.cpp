@@ -31,6 +31,8 @@ std::string capture_line(const Chunk& chunk) {
 
 namespace {
 
+constexpr std::string_view kStoppedLine = "# stopped (the live run ended here)\n";
+
 Status write_all(int fd, const std::string& text, const std::string& path) {
     std::size_t done = 0;
     while (done < text.size()) {
@@ -57,6 +59,12 @@ class RecordingSource final : public ChunkSource {
 
     Result<bool> next(Chunk& out) override {
         Result<bool> more = inner_->next(out);
+        if (more.ok() && !*more && !ended_) {
+            // The live run was stopped here: decoded later, a frame cut by the stop is
+            // not taken for one the bus cut short.
+            ended_ = true;
+            if (Status s = write_all(fd_, std::string(kStoppedLine), path_); !s) return s.error();
+        }
         if (!more.ok() || !*more || out.bytes.empty()) return more;
         if (Status s = write_all(fd_, capture_line(out), path_); !s) return s.error();
         return more;
@@ -66,6 +74,7 @@ class RecordingSource final : public ChunkSource {
     std::unique_ptr<ChunkSource> inner_;
     int fd_;
     std::string path_;
+    bool ended_ = false;
 };
 
 }  // namespace

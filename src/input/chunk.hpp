@@ -69,6 +69,9 @@ class ChunkSource {
     // Remarks worth telling the user once the input is read, e.g. the lines a hex
     // reader skipped. Empty for most sources.
     [[nodiscard]] virtual std::vector<std::string> remarks() const { return {}; }
+    // Whether the input ends where a live run was stopped (a capture's `# stopped` line):
+    // a frame on the line then was cut by the stop, not by the bus.
+    [[nodiscard]] virtual bool ended_by_stop() const { return false; }
 };
 
 }  // namespace rtuscope

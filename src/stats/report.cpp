@@ -199,10 +199,10 @@ TextSelection select_for_text(const BusStats& stats, std::size_t top) {
     for (const auto& row : stats.functions()) {
         if (is_traffic(row.second)) {
             sel.traffic.push_back(&row);
-        } else {
+        } else if (row.second.crc_errors != 0) {
             ++sel.junk_rows;
             sel.junk_crc_errors += row.second.crc_errors;
-        }
+        }  // else nothing to count: a request the run stopped before its answer could come
     }
     sel.shown = busiest(sel.traffic, top, [](TextSelection::Row r) { return frames_of(r->second); });
     if (!stats.timed()) return sel;

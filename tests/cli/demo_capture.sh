@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # `demo -w FILE` records what the live run knew in the capture's header (the line, the
-# device map): decoding the file later pairs and names everything as the live run did.
+# device map) and where the run stopped: decoding the file later pairs and names
+# everything as the live run did.
 # Usage: demo_capture.sh RTUSCOPE   (from the source directory)
 set -uo pipefail
 rtuscope=$1
@@ -12,6 +13,8 @@ fail() { echo "FAIL: $*" >&2; exit 1; }
     fail "demo: $(cat "$work/live.err")"
 grep -q '^# device 1 zb-uvi485$' "$work/demo.rtucap" || fail "no device map in the header"
 grep -q '^# written by rtuscope ' "$work/demo.rtucap" || fail "no version in the header"
+[ "$(tail -1 "$work/demo.rtucap")" = "# stopped (the live run ended here)" ] ||
+    fail "the capture does not end with the stop"
 "$rtuscope" decode "$work/demo.rtucap" --no-color >"$work/later" 2>"$work/later.err" ||
     fail "decode: $(cat "$work/later.err")"
 grep -q '^devices: zb-uvi485 on 1; sensor-analyser on 2; pdu485 on 3; zyi-relay on 4$' \
