@@ -58,8 +58,8 @@ void count(Totals& totals, const Record& record) {
     }
     if (record.frame.crc.status == CrcStatus::bad) ++totals.crc_bad;
     if (record.frame.crc.status == CrcStatus::swapped) ++totals.crc_swapped;
-    if (record.notes.has(note_id::no_answer)) ++totals.unanswered;
-    if (record.notes.has(note_id::unsolicited)) ++totals.unsolicited;
+    if (record.went_unanswered()) ++totals.unanswered;
+    if (record.answers_no_request()) ++totals.unsolicited;
 }
 
 }  // namespace

@@ -489,6 +489,26 @@ TEST(Framer, BytesOfALateChunkAreSpreadEvenlyToTheNanosecond) {
 // A crafted capture naming a new channel on every line: each frame keeps its own channel,
 // however many came before it, and the names are not kept for ever: the framer holds only
 // those of the chunks it buffers, so such a capture decodes as quickly as any other.
+// On a two-port tap the port decides how a frame cut short is read, as any other: 5 bytes
+// on the slaves' port, no request awaited, are an answer cut short (◀), measured against
+// an answer's length, not a request's.
+TEST(Framer, ACutShortFrameGoesTheWayItsPortSays) {
+    const Nanos t = 1'000'000'000;
+    std::vector<Chunk> chunks{{t, "slave", {0x01, 0x03, 0x04, 0x00, 0x01}, 1, {}, false},
+                              {t + 50 * kMs, "master", {0x01, 0x03, 0x04, 0x00, 0x01}, 2, {}, false}};
+    Harness h;
+    const auto& r = h.run(chunks);
+    ASSERT_EQ(r.size(), 2U);
+    EXPECT_EQ(r[0].kind, Kind::invalid);
+    EXPECT_EQ(r[0].frame.reading, Reading::response);
+    // Cut short by the answer's length (4 registers' worth: 9 bytes), not the request's (8).
+    const auto cut = std::find_if(r[0].notes.begin(), r[0].notes.end(),
+                                  [](const Note& n) { return n.id == note_id::truncated; });
+    ASSERT_NE(cut, r[0].notes.end());
+    EXPECT_EQ(cut->text, "cut short: 5 of 9 bytes");
+    EXPECT_EQ(r[1].frame.reading, Reading::request);
+}
+
 TEST(Framer, ChannelsBeyondTheFirst65536KeepTheirNames) {
     std::vector<Chunk> chunks;
     for (int i = 0; i < 70'000; ++i) {

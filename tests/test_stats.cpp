@@ -49,21 +49,27 @@ Record with_note(Record r, const char* id) {
     return r;
 }
 
-// Runs the whole pipeline on an in-memory input and returns the finished statistics.
-BusStats stats_of(std::string content, InputFormat format, const Bus* bus = nullptr) {
+// Runs the whole pipeline on an in-memory input and returns the finished statistics
+// (and the closing summary's totals in `totals`).
+BusStats stats_of(std::string content, InputFormat format, const Bus* bus = nullptr,
+                  Totals* totals = nullptr) {
     auto source = source_from_memory(std::move(content), "mem", format);
     EXPECT_TRUE(source) << source.error().to_string();
     BusStats stats;
     class Sink final : public RecordSink {
       public:
-        explicit Sink(BusStats& s) : stats_(s) {}
+        Sink(BusStats& s, Totals* totals) : stats_(s), totals_(totals) {}
         void begin(const SessionInfo& session) override { stats_.begin(session); }
         void record(const Record& r) override { stats_.add(r); }
-        void end(const Totals&, const std::vector<std::string>&) override { stats_.finish(); }
+        void end(const Totals& t, const std::vector<std::string>&) override {
+            stats_.finish();
+            if (totals_ != nullptr) *totals_ = t;
+        }
 
       private:
         BusStats& stats_;
-    } sink(stats);
+        Totals* totals_;
+    } sink(stats, totals);
     PipelineOptions options;
     options.bus = bus;
     EXPECT_TRUE(run_pipeline(**source, options, sink));
@@ -1009,7 +1015,7 @@ TEST(StatsRealData, FlowmeterGraphTool) {
 }
 
 // Every request has one outcome, on every bundled capture: the row adds up.
-TEST(StatsCounts, EveryRequestHasOneOutcomeOnEveryCapture) {
+TEST(StatsCounts, EveryRequestHasOneOutcomeOnEveryCaptureAsDecodeCountsIt) {
     std::size_t captures = 0;
     for (const auto& entry : std::filesystem::recursive_directory_iterator(
              std::filesystem::path(RTUSCOPE_SOURCE_DIR) / "captures")) {
@@ -1019,16 +1025,32 @@ TEST(StatsCounts, EveryRequestHasOneOutcomeOnEveryCapture) {
         std::ifstream in(entry.path(), std::ios::binary);
         const std::string content((std::istreambuf_iterator<char>(in)),
                                   std::istreambuf_iterator<char>());
-        const BusStats s = stats_of(content, InputFormat::automatic);
+        Totals totals;
+        const BusStats s = stats_of(content, InputFormat::automatic, nullptr, &totals);
         for (const auto& [key, row] : s.functions()) {
             EXPECT_EQ(row.requests, row.answers + row.exceptions + row.broken + row.no_answer)
                 << "slave " << int{key.first} << " function " << int{key.second};
         }
         const FunctionStats& all = s.all();
         EXPECT_EQ(all.requests, all.answers + all.exceptions + all.broken + all.no_answer);
+        // decode's closing lines count by the same rule.
+        EXPECT_EQ(all.no_answer, totals.unanswered);
+        EXPECT_EQ(all.unsolicited, totals.unsolicited);
         ++captures;
     }
     EXPECT_GT(captures, 20U);
+}
+
+// A second answer to one request (two devices on one address) answers no waiting
+// request: decode's closing line and stats both count it so.
+TEST(StatsCounts, ASecondAnswerCountsAsWithoutRequestInDecodeAndStats) {
+    Totals totals;
+    const BusStats s = stats_of(
+        "01 03 00 00 00 01 84 0A\n01 03 02 08 9D 7E 2D\n01 03 02 08 9D 7E 2D\n",
+        InputFormat::hex, nullptr, &totals);
+    EXPECT_EQ(s.all().answers, 1U);
+    EXPECT_EQ(s.all().unsolicited, 1U);
+    EXPECT_EQ(totals.unsolicited, 1U);
 }
 
 // A cut-short answer is the request's outcome: broken, not lost between the columns.

@@ -26,6 +26,14 @@ std::string_view to_string(Kind kind) {
     return "";
 }
 
+bool Record::went_unanswered() const {
+    return awaits_answer && notes.has(note_id::no_answer);
+}
+
+bool Record::answers_no_request() const {
+    return notes.has(note_id::unsolicited) || notes.has(note_id::duplicate_answer);
+}
+
 void Record::clear() {
     number = 0;
     kind = Kind::noise;

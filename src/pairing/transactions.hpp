@@ -49,6 +49,12 @@ struct Record {
     // Empties every field but keeps the buffers: records are reused, one per frame
     // would otherwise cost a dozen allocations.
     void clear();
+
+    // The one rule every count of them follows (the closing summary, stats): a request
+    // that waited in vain; an answer to no waiting request (nobody asked, or a second
+    // answer to one request).
+    [[nodiscard]] bool went_unanswered() const;
+    [[nodiscard]] bool answers_no_request() const;
 };
 
 // Frames, and their bytes, held back behind an awaited request, at most. A Modbus answer

@@ -66,7 +66,7 @@ void BusStats::add(const Record& record) {
     if (record.kind == Kind::broadcast) ++s.broadcasts;
     if (request) {
         ++s.requests;
-        if (record.notes.has(note_id::no_answer)) ++s.no_answer;
+        if (record.went_unanswered()) ++s.no_answer;
     }
     if (record.kind == Kind::request) count_poll(key, record);
     if (answer) count_answer(s, record);
@@ -89,7 +89,7 @@ void BusStats::count_poll(const Key& key, const Record& record) {
 void BusStats::count_answer(FunctionStats& s, const Record& record) {
     const Frame& f = record.frame;
     if (record.kind == Kind::exception && f.bytes.size() >= 3) count_exception_code(s, f.bytes[2]);
-    if (record.notes.has(note_id::unsolicited) || record.notes.has(note_id::duplicate_answer)) {
+    if (record.answers_no_request()) {
         ++s.unsolicited;
         return;
     }
