@@ -82,6 +82,14 @@ void add_output_options(CLI::App& cmd, OutputArgs& args) {
                    "Also write every frame to FILE as pcap (Wireshark: Modbus RTU, link type 252)")
         ->type_name("FILE");
     add_line_options(cmd, args);
+    add_display_options(cmd, args);
+    add_filter_options(cmd, args);
+    add_bus_options(cmd, args.bus);
+}
+
+// The text's look. `stats` takes them too, so that a decode's command line still works
+// when `decode` becomes `stats`; they change nothing in the statistics.
+void add_display_options(CLI::App& cmd, OutputArgs& args) {
     cmd.add_option("-t,--time", args.time_format,
                    "Time column (text), as tshark's -t: a = local time of day, the date on a "
                    "line of its own when it changes (default; TZ applies), ad = local date "
@@ -94,8 +102,6 @@ void add_output_options(CLI::App& cmd, OutputArgs& args) {
                  "Hide the register values under the frames (text output)");
     cmd.add_flag("--no-color", args.no_color,
                  "No colour (also off when NO_COLOR is set or stdout is not a terminal)");
-    add_filter_options(cmd, args);
-    add_bus_options(cmd, args.bus);
 }
 
 void add_stats_options(CLI::App& cmd, OutputArgs& args) {
@@ -106,6 +112,7 @@ void add_stats_options(CLI::App& cmd, OutputArgs& args) {
         ->default_val(kStatsTop)
         ->check(CLI::NonNegativeNumber);
     add_line_options(cmd, args);
+    add_display_options(cmd, args);
     add_filter_options(cmd, args);
     add_bus_options(cmd, args.bus);
 }

@@ -40,7 +40,9 @@ struct OutputArgs {
 };
 
 void add_output_options(CLI::App& cmd, OutputArgs& args);
-// The statistics command's subset: formats, line, timeout, filters, bus map.
+// The text's look: -t, --hex, --no-values, --no-color.
+void add_display_options(CLI::App& cmd, OutputArgs& args);
+// The statistics command's subset: formats, line, timeout, display, filters, bus map.
 void add_stats_options(CLI::App& cmd, OutputArgs& args);
 
 // Everything the options decide, checked; errors are printed here. nullopt then, with
