@@ -78,6 +78,10 @@ Status run_pipeline(ChunkSource& source, const PipelineOptions& options, RecordS
         session.line.baud = baud;
     }
     if (options.baud) session.line.baud = *options.baud;
+    session.baud_origin = options.baud             ? BaudOrigin::option
+                          : source.info().line     ? BaudOrigin::input
+                          : bus_line               ? BaudOrigin::profiles
+                                                   : BaudOrigin::assumed;
     if (options.bus != nullptr) session.devices = options.bus->map_text();
     sink.begin(session);
 

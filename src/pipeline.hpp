@@ -34,9 +34,14 @@ struct PipelineOptions {
 };
 
 // What a sink is told before the first record.
+// Where the baud rate in effect comes from: the input (a capture header, a live port),
+// --baud, the bus file or the devices' profiles, or nowhere (9600 assumed).
+enum class BaudOrigin : std::uint8_t { input, option, profiles, assumed };
+
 struct SessionInfo {
     SourceInfo source;
     LineSettings line;    // in effect after header and options
+    BaudOrigin baud_origin = BaudOrigin::assumed;
     std::string devices;  // the bus map, "zb-uvi485 on 1, 2; pdu485 on 3"; empty without
 };
 

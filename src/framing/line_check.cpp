@@ -15,10 +15,6 @@ constexpr double kMinValidShare = 0.05;
 // Intervals kept for the rate estimate: up to 10 ms, in microseconds.
 constexpr std::size_t kMaxIntervalMicros = 10'000;
 
-constexpr std::array<std::uint32_t, 14> kStandardBauds = {1200,   2400,   4800,   9600,  14400,
-                                                          19200,  28800,  38400,  57600, 76800,
-                                                          115200, 230400, 460800, 921600};
-
 }  // namespace
 
 void LineCheck::chunk(const Chunk& chunk) {
@@ -71,10 +67,7 @@ std::vector<std::string> LineCheck::remarks() const {
         std::string suggestion;
         if (seen != 0) {
             const double baud = line_.bits_per_char() * 1e6 / (static_cast<double>(micros) + 0.5);
-            std::uint32_t nearest = kStandardBauds.front();
-            for (const std::uint32_t b : kStandardBauds) {
-                if (std::abs(std::log(b / baud)) < std::abs(std::log(nearest / baud))) nearest = b;
-            }
+            const std::uint32_t nearest = nearest_standard_baud(baud);
             suggestion = fmt::format("; their spacing ({} µs) suggests {} baud", micros, nearest);
         }
         out.push_back(

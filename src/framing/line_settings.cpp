@@ -2,8 +2,10 @@
 
 #include <fmt/format.h>
 
+#include <array>
 #include <cctype>
 #include <charconv>
+#include <cmath>
 
 namespace rtuscope {
 
@@ -73,6 +75,27 @@ Result<LineSettings> parse_line_settings(std::string_view text) {
     if (!line) return line.error();
     line->baud = *baud;
     return line;
+}
+
+namespace {
+constexpr std::array<std::uint32_t, 14> kStandardBauds = {1200,   2400,   4800,   9600,  14400,
+                                                          19200,  28800,  38400,  57600, 76800,
+                                                          115200, 230400, 460800, 921600};
+}  // namespace
+
+std::uint32_t nearest_standard_baud(double baud) {
+    std::uint32_t nearest = kStandardBauds.front();
+    for (const std::uint32_t b : kStandardBauds) {
+        if (std::abs(std::log(b / baud)) < std::abs(std::log(nearest / baud))) nearest = b;
+    }
+    return nearest;
+}
+
+std::uint32_t standard_baud_at_least(double baud) {
+    for (const std::uint32_t b : kStandardBauds) {
+        if (b >= baud) return b;
+    }
+    return kStandardBauds.back();
 }
 
 }  // namespace rtuscope

@@ -33,4 +33,9 @@ Result<std::uint32_t> parse_baud(std::string_view text);
 // "9600 8E1": baud rate and format, as profiles and bus files give them.
 Result<LineSettings> parse_line_settings(std::string_view text);
 
+// The standard rate nearest to `baud` (by ratio), and the lowest standard rate at least
+// `baud` (the highest when none is).
+std::uint32_t nearest_standard_baud(double baud);
+std::uint32_t standard_baud_at_least(double baud);
+
 }  // namespace rtuscope

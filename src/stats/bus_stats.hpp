@@ -134,6 +134,10 @@ class BusStats {
     [[nodiscard]] std::optional<Nanos> duration() const;
     // Per cent of the time the line carried a character; nullopt without timing.
     [[nodiscard]] std::optional<double> utilisation() const;
+    // False when the bytes would take longer than the input lasts: the baud rate is wrong.
+    [[nodiscard]] bool utilisation_possible() const {
+        return !utilisation() || *utilisation() <= 100.0;
+    }
     // The poll with the most requests (ties: the lowest key) among those of one slave and
     // function, or of the whole bus when `key` is nullopt. Its cycle stands for the
     // row's cycle: a master usually repeats one poll list, so every poll of it shows the

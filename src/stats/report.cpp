@@ -180,6 +180,51 @@ std::vector<T> busiest(std::vector<T> items, std::size_t top, Weight weight) {
     return kept;
 }
 
+std::string_view to_string(BaudOrigin origin) {
+    switch (origin) {
+        case BaudOrigin::input:
+            return "input";
+        case BaudOrigin::option:
+            return "option";
+        case BaudOrigin::profiles:
+            return "profiles";
+        case BaudOrigin::assumed:
+            break;
+    }
+    return "assumed";
+}
+
+// The utilisation is bytes × character time over the duration: a fact only as far as the
+// baud rate is. One the input does not give is said to be taken from the profiles or
+// assumed; and a figure over 100 % is no utilisation but a wrong baud rate.
+std::string utilisation_text(const BusStats& stats) {
+    const SessionInfo& session = stats.session();
+    const std::uint64_t bytes = stats.bus().bytes;
+    const double percent = *stats.utilisation();
+    const std::uint32_t baud = session.line.baud;
+    if (!stats.utilisation_possible()) {
+        return fmt::format(
+            "utilisation impossible: {} {} at {} baud take {:.3f} s, more than the input lasts; "
+            "the baud rate is wrong ({}; at least {} baud fits)",
+            bytes, plural(bytes, "byte", "bytes"), baud,
+            static_cast<double>(*stats.duration()) / 1e9 * percent / 100,
+            session.baud_origin == BaudOrigin::option    ? "--baud gives it"
+            : session.baud_origin == BaudOrigin::input   ? "the input's header gives it"
+            : session.baud_origin == BaudOrigin::profiles ? "the profiles give it"
+                                                          : "it is assumed: --baud gives it",
+            standard_baud_at_least(baud * percent / 100));
+    }
+    std::string origin;
+    if (session.baud_origin == BaudOrigin::profiles) {
+        origin = fmt::format(", at the {} baud the profiles give", baud);
+    } else if (session.baud_origin == BaudOrigin::assumed) {
+        origin = fmt::format(", at an assumed {} baud", baud);
+    }
+    return fmt::format("utilisation {:.1f} % ({} {} of {:.3f} ms{})", percent, bytes,
+                       plural(bytes, "byte", "bytes"),
+                       static_cast<double>(session.line.char_time()) / 1e6, origin);
+}
+
 // What the text lists: the busiest rows that are bus traffic, the busiest polls that
 // keep a rhythm; the rest is counted.
 struct TextSelection {
@@ -267,10 +312,8 @@ void write_text(const BusStats& stats, const std::vector<std::string>& remarks, 
                        bus.noise_bytes, plural(bus.noise_bytes, "noise byte", "noise bytes"),
                        bus.noise_runs, plural(bus.noise_runs, "run", "runs"));
     if (stats.timed()) {
-        out += fmt::format("duration: {:.3f} s, utilisation {:.1f} % ({} {} of {:.3f} ms)\n",
-                           static_cast<double>(*stats.duration()) / 1e9, *stats.utilisation(),
-                           bus.bytes, plural(bus.bytes, "byte", "bytes"),
-                           static_cast<double>(session.line.char_time()) / 1e6);
+        out += fmt::format("duration: {:.3f} s, {}\n",
+                           static_cast<double>(*stats.duration()) / 1e9, utilisation_text(stats));
         const auto* poll = stats.main_poll(std::nullopt);
         if (poll != nullptr && !poll->second.cycles.empty() && !regular(poll->second.cycles)) {
             out += fmt::format(
@@ -500,7 +543,10 @@ void write_jsonl(const BusStats& stats, Pieces& pieces) {
     append_json_member(out, "line", fmt::format("{} {}", session.line.baud, session.line.format()));
     out += ',';
     append_json_member(out, "devices", session.devices);
-    const std::optional<double> utilisation = stats.utilisation();
+    out += ',';
+    append_json_member(out, "baud_origin", to_string(session.baud_origin));
+    const std::optional<double> utilisation =
+        stats.utilisation_possible() ? stats.utilisation() : std::nullopt;
     fmt::format_to(std::back_inserter(out),
                    ",\"timed\":{},\"duration_s\":{},\"frames\":{},\"bytes\":{},\"noise_runs\":{},"
                    "\"noise_bytes\":{},\"invalid\":{},\"unknown\":{},\"char_time_ms\":{:.6f},"
