@@ -639,7 +639,8 @@ TEST(SourcesDetect, RecognisesEachFormat) {
     EXPECT_EQ(detect_input_format("010300000002C40B"), InputFormat::hex);
     EXPECT_EQ(detect_input_format(std::string("\x01\x03\x00\x00\x00\x02\xC4\x0B", 8)),
               InputFormat::raw);
-    EXPECT_EQ(detect_input_format("01 03 00 00\x1B[0m\n"), InputFormat::raw);    // control byte
+    EXPECT_EQ(detect_input_format("01 03 00 00\x1B\x03\n"), InputFormat::raw);   // control bytes
+    EXPECT_EQ(detect_input_format("01 03 00 00\x1B(B\n"), InputFormat::raw);     // not a colour
     EXPECT_EQ(detect_input_format("caf\xE9: 01 03 00 00\n"), InputFormat::raw);  // Latin-1
     // Text with no frame in its head is still a log: the hex reader then lists the lines
     // it skipped instead of decoding prose as bus noise.
@@ -649,6 +650,16 @@ TEST(SourcesDetect, RecognisesEachFormat) {
     EXPECT_EQ(detect_input_format(""), InputFormat::raw);
     // The sniffed head may end inside a UTF-8 character.
     EXPECT_EQ(detect_input_format("01 03 00 00 00 02 C4 0B\n\xE4\xB8"), InputFormat::hex);
+}
+
+// A logger that colours its lines (ESPHome's) writes escapes: the text is still a log.
+TEST(SourcesDetect, ColouredTextIsALog) {
+    EXPECT_EQ(detect_input_format("[20:22:02]\x1B[0;36m[D][uart_debug:114]: >>> "
+                                  "06:03:00:00:00:02:C5:BC\x1B[0m\n"),
+              InputFormat::hex);
+    EXPECT_EQ(detect_input_format("01 03 00 00\x1B[0m\n"), InputFormat::hex);
+    // The sniffed head may end inside an escape.
+    EXPECT_EQ(detect_input_format("01 03 00 00\x1B[0;3"), InputFormat::hex);
 }
 
 TEST(SourcesDetect, AutomaticFromMemoryPicksTheReader) {
