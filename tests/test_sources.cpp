@@ -5,7 +5,9 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdio>
+#include <filesystem>
 #include <limits>
 #include <optional>
 #include <random>
@@ -1025,6 +1027,38 @@ TEST(SourcesDetect, ColouredTextIsALog) {
     EXPECT_EQ(detect_input_format("01 03 00 00\x1B[0m\n"), InputFormat::hex);
     // The sniffed head may end inside an escape.
     EXPECT_EQ(detect_input_format("01 03 00 00\x1B[0;3"), InputFormat::hex);
+}
+
+// Every file the repository holds as an example of a format is detected as that format:
+// each hex log as hex, and no capture, raw dump or pcap as a hex log.
+TEST(SourcesDetect, EveryBundledFileIsDetectedAsItsFormat) {
+    const std::vector<std::pair<std::string, InputFormat>> by_extension = {
+        {".log", InputFormat::hex}, {".hex", InputFormat::hex},   {".rtucap", InputFormat::capture},
+        {".bin", InputFormat::raw}, {".pcap", InputFormat::pcap}, {".pcapng", InputFormat::pcap},
+    };
+    std::size_t files = 0;
+    std::size_t logs = 0;
+    const std::filesystem::path root(RTUSCOPE_SOURCE_DIR);
+    for (const char* dir : {"captures", "tests/data", "fuzz/corpus"}) {
+        for (const auto& entry : std::filesystem::recursive_directory_iterator(root / dir)) {
+            if (!entry.is_regular_file()) continue;
+            const std::string ext = entry.path().extension().string();
+            const auto expected = std::find_if(by_extension.begin(), by_extension.end(),
+                                               [&](const auto& e) { return e.first == ext; });
+            if (expected == by_extension.end()) continue;
+            SCOPED_TRACE(entry.path().string());
+            std::string head(4096, '\0');
+            std::FILE* f = std::fopen(entry.path().c_str(), "rb");
+            ASSERT_NE(f, nullptr);
+            head.resize(std::fread(head.data(), 1, head.size(), f));
+            std::fclose(f);
+            EXPECT_EQ(detect_input_format(head), expected->second);
+            ++files;
+            if (expected->second == InputFormat::hex) ++logs;
+        }
+    }
+    EXPECT_GT(files, 50U);
+    EXPECT_GT(logs, 20U);
 }
 
 TEST(SourcesDetect, AutomaticFromMemoryPicksTheReader) {
