@@ -5,7 +5,9 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdio>
+#include <filesystem>
 #include <limits>
 #include <optional>
 #include <random>
@@ -425,58 +427,12 @@ struct HexCase {
     const char* line;
     Bytes bytes;
     Nanos time;
+    const char* channel;  // from the line's direction word, "" if none
 };
 
-TEST(HexReader, ReadsManualAndTerminalLines) {
-    const std::vector<HexCase> cases = {
-        {"主机：01 03 00 00 00 02 c4 0b",
-         {0x01, 0x03, 0x00, 0x00, 0x00, 0x02, 0xC4, 0x0B},
-         kNoTime},
-        {"ZB-UVI485模块：**01 03 02 18 18 b2 4e**",
-         {0x01, 0x03, 0x02, 0x18, 0x18, 0xB2, 0x4E},
-         kNoTime},
-        {"串口调试助手： 01 04 00 15 00 12 61 c3",
-         {0x01, 0x04, 0x00, 0x15, 0x00, 0x12, 0x61, 0xC3},
-         kNoTime},
-        {"[2024-05-01 10:21:33.120] TX: 01 03 00 00 00 02 C4 0B",
-         {0x01, 0x03, 0x00, 0x00, 0x00, 0x02, 0xC4, 0x0B},
-         1714558893120000000},
-        {"10:21:33.120 RX 01 03 02 17 F8 B6 36",
-         {0x01, 0x03, 0x02, 0x17, 0xF8, 0xB6, 0x36},
-         37293120000000},
-        {"010300000002C40B", {0x01, 0x03, 0x00, 0x00, 0x00, 0x02, 0xC4, 0x0B}, kNoTime},
-        {"TX:01 06 00 01 00 03 98 0B", {0x01, 0x06, 0x00, 0x01, 0x00, 0x03, 0x98, 0x0B}, kNoTime},
-        {"RX>01 06 00 01 00 03 98 0B", {0x01, 0x06, 0x00, 0x01, 0x00, 0x03, 0x98, 0x0B}, kNoTime},
-        {"send: 010300000002C40B", {0x01, 0x03, 0x00, 0x00, 0x00, 0x02, 0xC4, 0x0B}, kNoTime},
-        {"RECV:0103021818B24E", {0x01, 0x03, 0x02, 0x18, 0x18, 0xB2, 0x4E}, kNoTime},
-        {"发送 -> 01 03 00 00 00 02 C4 0B",
-         {0x01, 0x03, 0x00, 0x00, 0x00, 0x02, 0xC4, 0x0B},
-         kNoTime},
-        {"{0x01, 0x03, 0x00, 0x00, 0x00, 0x02, 0xC4, 0x0B}", {}, kNoTime},  // '}' ends it
-        {"0x01, 0x03, 0x00, 0x00, 0x00, 0x02, 0xC4, 0x0B,",
-         {0x01, 0x03, 0x00, 0x00, 0x00, 0x02, 0xC4, 0x0B},
-         kNoTime},
-        {"`01 03 02 17 F8 B6 36`", {0x01, 0x03, 0x02, 0x17, 0xF8, 0xB6, 0x36}, kNoTime},
-        {"[10:21:33.120]收←◆01 03 02 17 F8 B6 36",  // sscom
-         {0x01, 0x03, 0x02, 0x17, 0xF8, 0xB6, 0x36},
-         37293120000000},
-        {"2024-05-01T10:21:33Z 01 03 00", {0x01, 0x03, 0x00}, 1714558893000000000},
-        {"2024-05-01 18:21:33+08:00 01 03 00", {0x01, 0x03, 0x00}, 1714558893000000000},
-        {"2024/05/01 10:21:33,5 01 03 00", {0x01, 0x03, 0x00}, 1714558893500000000},
-        {"9:05:03 01 03 00", {0x01, 0x03, 0x00}, 32703000000000},
-        {"10:21:33 AB CD EF", {0xAB, 0xCD, 0xEF}, 37293000000000},
-        {"01 03 00 00 00 02 C4 0B # read 2 registers 01 02 03",
-         {0x01, 0x03, 0x00, 0x00, 0x00, 0x02, 0xC4, 0x0B},
-         kNoTime},
-        {"Frame #3: 01 03 02 17 F8 B6 36 // answer",
-         {0x01, 0x03, 0x02, 0x17, 0xF8, 0xB6, 0x36},
-         kNoTime},
-        {"| 01 03 02 17 F8 B6 36 |", {0x01, 0x03, 0x02, 0x17, 0xF8, 0xB6, 0x36}, kNoTime},
-        {"主机，01，03，00", {0x01, 0x03, 0x00}, kNoTime},
-        {"发送：01H 03H 00H 00H 00H 01H 84H 0AH",
-         {0x01, 0x03, 0x00, 0x00, 0x00, 0x01, 0x84, 0x0A},
-         kNoTime},
-    };
+// Reads each line as a log of its own, which must give one chunk of `bytes` at `time` on
+// `channel`; a line of more than 3 bytes is one frame with its right CRC.
+void expect_each_line_read(const std::vector<HexCase>& cases) {
     for (const HexCase& c : cases) {
         SCOPED_TRACE(c.line);
         auto source = from_memory(std::string(c.line) + "\n", InputFormat::hex, "log.txt");
@@ -486,19 +442,12 @@ TEST(HexReader, ReadsManualAndTerminalLines) {
         EXPECT_EQ(source->info().timed, has_time(c.time));
         Drained d = drain(*source);
         ASSERT_FALSE(d.error);
-        if (c.bytes.empty()) {
-            EXPECT_TRUE(d.chunks.empty());
-            EXPECT_EQ(source->remarks(),
-                      std::vector<std::string>{"skipped 1 line with no frame: 1"});
-            continue;
-        }
         ASSERT_EQ(d.chunks.size(), 1U);
         EXPECT_EQ(d.chunks[0].bytes, c.bytes);
         EXPECT_EQ(d.chunks[0].time, c.time);
         EXPECT_EQ(d.chunks[0].source_line, 1);
-        EXPECT_EQ(d.chunks[0].channel, "");
-        // Every line of more than 3 bytes here is one frame with its right CRC; the
-        // 3-byte ones are no frame, and go to the framer (and into the closing note).
+        EXPECT_EQ(d.chunks[0].channel, c.channel);
+        // The 3-byte lines are no frame, and go to the framer (and into the closing note).
         const bool whole = c.bytes.size() > 3;
         EXPECT_EQ(d.chunks[0].whole_frame, whole);
         EXPECT_EQ(
@@ -507,6 +456,167 @@ TEST(HexReader, ReadsManualAndTerminalLines) {
                   : std::vector<std::string>{"no line held one frame, 1 line was framed as a byte "
                                              "stream (not one frame by length and CRC)"});
     }
+}
+
+TEST(HexReader, ReadsManualAndTerminalLines) {
+    expect_each_line_read({
+        {"主机：01 03 00 00 00 02 c4 0b",
+         {0x01, 0x03, 0x00, 0x00, 0x00, 0x02, 0xC4, 0x0B},
+         kNoTime,
+         "master"},
+        {"ZB-UVI485模块：**01 03 02 18 18 b2 4e**",
+         {0x01, 0x03, 0x02, 0x18, 0x18, 0xB2, 0x4E},
+         kNoTime,
+         ""},
+        {"串口调试助手： 01 04 00 15 00 12 61 c3",
+         {0x01, 0x04, 0x00, 0x15, 0x00, 0x12, 0x61, 0xC3},
+         kNoTime,
+         ""},
+        {"[2024-05-01 10:21:33.120] TX: 01 03 00 00 00 02 C4 0B",
+         {0x01, 0x03, 0x00, 0x00, 0x00, 0x02, 0xC4, 0x0B},
+         1714558893120000000,
+         "master"},
+        {"10:21:33.120 RX 01 03 02 17 F8 B6 36",
+         {0x01, 0x03, 0x02, 0x17, 0xF8, 0xB6, 0x36},
+         37293120000000,
+         "slave"},
+        {"010300000002C40B", {0x01, 0x03, 0x00, 0x00, 0x00, 0x02, 0xC4, 0x0B}, kNoTime, ""},
+        {"TX:01 06 00 01 00 03 98 0B",
+         {0x01, 0x06, 0x00, 0x01, 0x00, 0x03, 0x98, 0x0B},
+         kNoTime,
+         "master"},
+        {"RX>01 06 00 01 00 03 98 0B",
+         {0x01, 0x06, 0x00, 0x01, 0x00, 0x03, 0x98, 0x0B},
+         kNoTime,
+         "slave"},
+        {"send: 010300000002C40B",
+         {0x01, 0x03, 0x00, 0x00, 0x00, 0x02, 0xC4, 0x0B},
+         kNoTime,
+         "master"},
+        {"RECV:0103021818B24E", {0x01, 0x03, 0x02, 0x18, 0x18, 0xB2, 0x4E}, kNoTime, "slave"},
+        {"发送 -> 01 03 00 00 00 02 C4 0B",
+         {0x01, 0x03, 0x00, 0x00, 0x00, 0x02, 0xC4, 0x0B},
+         kNoTime,
+         "master"},
+        {"{0x01, 0x03, 0x00, 0x00, 0x00, 0x02, 0xC4, 0x0B}",
+         {0x01, 0x03, 0x00, 0x00, 0x00, 0x02, 0xC4, 0x0B},
+         kNoTime,
+         ""},
+        {"0x01, 0x03, 0x00, 0x00, 0x00, 0x02, 0xC4, 0x0B,",
+         {0x01, 0x03, 0x00, 0x00, 0x00, 0x02, 0xC4, 0x0B},
+         kNoTime,
+         ""},
+        {"`01 03 02 17 F8 B6 36`", {0x01, 0x03, 0x02, 0x17, 0xF8, 0xB6, 0x36}, kNoTime, ""},
+        {"[10:21:33.120]收←◆01 03 02 17 F8 B6 36",  // sscom
+         {0x01, 0x03, 0x02, 0x17, 0xF8, 0xB6, 0x36},
+         37293120000000,
+         "slave"},
+        {"2024-05-01T10:21:33Z 01 03 00", {0x01, 0x03, 0x00}, 1714558893000000000, ""},
+        {"2024-05-01 18:21:33+08:00 01 03 00", {0x01, 0x03, 0x00}, 1714558893000000000, ""},
+        {"2024/05/01 10:21:33,5 01 03 00", {0x01, 0x03, 0x00}, 1714558893500000000, ""},
+        {"9:05:03 01 03 00", {0x01, 0x03, 0x00}, 32703000000000, ""},
+        {"10:21:33 AB CD EF", {0xAB, 0xCD, 0xEF}, 37293000000000, ""},
+        {"01 03 00 00 00 02 C4 0B # read 2 registers 01 02 03",
+         {0x01, 0x03, 0x00, 0x00, 0x00, 0x02, 0xC4, 0x0B},
+         kNoTime,
+         ""},
+        {"Frame #3: 01 03 02 17 F8 B6 36 // answer",
+         {0x01, 0x03, 0x02, 0x17, 0xF8, 0xB6, 0x36},
+         kNoTime,
+         ""},
+        {"| 01 03 02 17 F8 B6 36 |", {0x01, 0x03, 0x02, 0x17, 0xF8, 0xB6, 0x36}, kNoTime, ""},
+        {"主机，01，03，00", {0x01, 0x03, 0x00}, kNoTime, "master"},
+        {"发送：01H 03H 00H 00H 00H 01H 84H 0AH",
+         {0x01, 0x03, 0x00, 0x00, 0x00, 0x01, 0x84, 0x0A},
+         kNoTime,
+         "master"},
+    });
+}
+
+// The line styles of other tools' logs, each as its tool writes a request (or an answer):
+// the bytes in one style, whatever the decoration, counts and columns around them.
+TEST(HexReader, ReadsTheLineStylesOfOtherTools) {
+    const Bytes request = {0x06, 0x03, 0x00, 0x00, 0x00, 0x02, 0xC5, 0xBC};
+    const Bytes answer = {0x06, 0x03, 0x04, 0x00, 0xE6, 0x00, 0x00, 0x6D, 0x04};
+    const Nanos esphome_time = ((20 * 60 + 22) * 60 + 2) * kNanosPerSecond;
+    expect_each_line_read({
+        {"06 03 00 00 00 02 C5 BC", request, kNoTime, ""},
+        {"06-03-00-00-00-02-C5-BC", request, kNoTime, ""},
+        {"06:03:00:00:00:02:C5:BC", request, kNoTime, ""},
+        {"06.03.00.00.00.02.C5.BC", request, kNoTime, ""},
+        {"060300000002C5BC", request, kNoTime, ""},
+        // libmodbus's debug output: [..] is what it sent, <..> what it received.
+        {"[06][03][00][00][00][02][C5][BC]", request, kNoTime, "master"},
+        {"<06><03><04><00><E6><00><00><6D><04>", answer, kNoTime, "slave"},
+        {"0x06 0x03 0x00 0x00 0x00 0x02 0xC5 0xBC", request, kNoTime, ""},
+        {"0x6 0x3 0x0 0x0 0x0 0x2 0xc5 0xbc", request, kNoTime, ""},
+        {"06 03 00 00 00 02 C5 BC (8 bytes)", request, kNoTime, ""},
+        {"06 03 00 00 00 02 C5 BC (8)", request, kNoTime, ""},
+        {"<Buffer 06 03 00 00 00 02 c5 bc>", request, kNoTime, ""},
+        {"Tx: 06 03 00 00 00 02 C5 BC", request, kNoTime, "master"},
+        {"Rx: 06 03 04 00 E6 00 00 6D 04", answer, kNoTime, "slave"},
+        {">>> 06 03 00 00 00 02 C5 BC", request, kNoTime, "master"},
+        {"<<< 06 03 04 00 E6 00 00 6D 04", answer, kNoTime, "slave"},
+        {"Tx:06:03:00:00:00:02:C5:BC", request, kNoTime, "master"},
+        {"[20:22:02][D][uart_debug:114]: >>> 06:03:00:00:00:02:C5:BC", request, esphome_time,
+         "master"},
+        // ESPHome's logger colours its lines.
+        {"[20:22:02]\x1B[0;36m[D][uart_debug:114]: <<< 06:03:04:00:E6:00:00:6D:04\x1B[0m", answer,
+         esphome_time, "slave"},
+        {"| 0000: 06 03 00 00 00 02 C5 BC                         |........|", request, kNoTime,
+         ""},
+        {"00000000  06 03 00 00 00 02 c5 bc                           |........|", request, kNoTime,
+         ""},
+        {"0000: 06 03 00 00 00 02 c5 bc  ........", request, kNoTime, ""},
+        // The ASCII column shows printable bytes as themselves: "0123" and "AB" are not bytes.
+        {"| 0000: 11 03 06 41 42 30 31 32 33 90 11                |...AB0123..|",
+         {0x11, 0x03, 0x06, 0x41, 0x42, 0x30, 0x31, 0x32, 0x33, 0x90, 0x11},
+         kNoTime,
+         ""},
+        {"Modbus write: 06.03.00.00.00.02.C5.BC (8) at 305852", request, kNoTime, "master"},
+        {"Modbus read: 06.03.04.00.E6.00.00.6D.04 (9) at 305871", answer, kNoTime, "slave"},
+        {"2024-05-01T08:21:33.120Z TX <Buffer 06 03 00 00 00 02 c5 bc>", request,
+         1714551693120000000, "master"},
+        {"2024-05-01 10:21:33,120 DEBUG rs485: send: 0x6 0x3 0x0 0x0 0x0 0x2 0xc5 0xbc", request,
+         1714558893120000000, "master"},
+        {"16:54:34:233 Tx: 06-03-00-00-00-02-C5-BC", request,
+         ((16 * 60 + 54) * 60 + 34) * kNanosPerSecond + 233000000, "master"},
+        {"10.05.2024 14:02:11.250 RX: 06 03 04 00 E6 00 00 6D 04", answer, 1715349731250000000,
+         "slave"},
+        {"Writing to instrument (expecting 9 bytes back): (06 03 00 00 00 02 C5 BC) (8 bytes)",
+         request, kNoTime, "master"},
+        {"Response: 06 03 04 00 E6 00 00 6D 04", answer, kNoTime, "slave"},
+        {"Master -> Slave: 06 03 00 00 00 02 C5 BC", request, kNoTime, "master"},
+    });
+}
+
+// Numbers that look like hex (a count, a millisecond counter, a baud rate, a 16-bit value,
+// a decimal, a MAC address beside a frame) never become bytes, and never beat the frame
+// on the line.
+TEST(HexReader, NeverInventsBytesFromNumbers) {
+    auto source = from_memory(
+        "Opening /dev/ttyUSB0 at 9600 bauds (N, 8, 1)\n"                       // 1
+        "Modbus timeout at 307852\n"                                           // 2
+        "ERROR CRC received 0xCA08 != CRC calculated 0xCA09\n"                 // 3
+        "Temperature 12.34 C, step 12-14\n"                                    // 4
+        "Modbus read: 06.03.02.00.32.8C.51 (7) at 308870\n"                    // 5
+        "Modbus write: 06.03.02 (3) at 305852\n"                               // 6
+        "TX 06 03 00 00 00 02 C5 BC, 16 bytes in the buffer, 12 more bytes\n"  // 7
+        "len=20 RX 06 03 04 00 E6 00 00 6D 04\n"                               // 8
+        "Uptime 12345678 ms, free heap 21344\n"                               // 9
+        "Serial number 20240501\n"                                            // 10
+        "Decimal digits, one frame: 0103000000044409\n",                      // 11
+        InputFormat::hex, "log.txt");
+    ASSERT_TRUE(source);
+    Drained d = drain(*source);
+    ASSERT_FALSE(d.error);
+    ASSERT_EQ(d.chunks.size(), 5U);
+    EXPECT_EQ(d.chunks[0].bytes, (Bytes{0x06, 0x03, 0x02, 0x00, 0x32, 0x8C, 0x51}));
+    EXPECT_EQ(d.chunks[1].bytes, (Bytes{0x06, 0x03, 0x02}));
+    EXPECT_EQ(d.chunks[2].bytes, (Bytes{0x06, 0x03, 0x00, 0x00, 0x00, 0x02, 0xC5, 0xBC}));
+    EXPECT_EQ(d.chunks[3].bytes, (Bytes{0x06, 0x03, 0x04, 0x00, 0xE6, 0x00, 0x00, 0x6D, 0x04}));
+    EXPECT_EQ(d.chunks[4].bytes, (Bytes{0x01, 0x03, 0x00, 0x00, 0x00, 0x04, 0x44, 0x09}));
+    EXPECT_EQ(source->remarks().back(), "skipped 6 lines with no frame: 1-4, 9-10");
 }
 
 TEST(HexReader, NeverReadsATimestampAsBytes) {
@@ -564,12 +674,12 @@ TEST(HexReader, MarksTheLinesThatAreOneFrameAndCountsBoth) {
 TEST(HexReader, SkippedLinesAreSummarisedInOneRemark) {
     auto source = from_memory(
         "Modbus example\n"  // 1 skipped
-        "request:\n"        // 2 skipped
+        "request:\n"        // a label: its direction goes to the lines under it
         "01 03\n"           // 3 skipped: too short
         "01 03 00 00 00 02 C4 0B\n"
         "\n"                    // blank: not counted
         "# comment 01 02 03\n"  // comment: not counted
-        "answer follows\n"      // 7 skipped
+        "answer follows\n"      // 7 skipped: prose, no label
         "01 03 02 17 F8 B6 36\n"
         "done.\n"  // 9 skipped
         "   // another comment\n",
@@ -579,10 +689,12 @@ TEST(HexReader, SkippedLinesAreSummarisedInOneRemark) {
     ASSERT_FALSE(d.error);
     ASSERT_EQ(d.chunks.size(), 2U);
     EXPECT_EQ(d.chunks[0].source_line, 4);
+    EXPECT_EQ(d.chunks[0].channel, "master");
     EXPECT_EQ(d.chunks[1].source_line, 8);
+    EXPECT_EQ(d.chunks[1].channel, "");
     EXPECT_FALSE(source->info().timed);
     EXPECT_EQ(source->remarks(),
-              std::vector<std::string>{"skipped 5 lines with no frame: 1-3, 7, 9"});
+              std::vector<std::string>{"skipped 4 lines with no frame: 1, 3, 7, 9"});
 }
 
 TEST(HexReader, TimedWhenAnyLineHasATimeAndTimeOfDayRollsOverMidnight) {
@@ -619,6 +731,261 @@ TEST(HexReader, SaysWhatItsTimesAre) {
     }
 }
 
+// Each timestamp style keeps its time, and says what its times are; a time of the header
+// line above the bytes (asyn's, a hexdump's) counts as the line's own.
+TEST(HexReader, KeepsTheTimeOfEachTimestampStyle) {
+    struct TimeCase {
+        const char* log;
+        Nanos time;
+        TimeBase base;
+    };
+    const Nanos day = 19844 * kNanosPerDay;  // 2024-05-01
+    const Nanos tod = ((10 * 60 + 21) * 60 + 33) * kNanosPerSecond + 120'000'000;
+    const std::vector<TimeCase> cases = {
+        {"10:21:33.120 TX 01 03 00 00 00 02 C4 0B", tod, TimeBase::time_of_day},
+        {"10:21:33,120 TX 01 03 00 00 00 02 C4 0B", tod, TimeBase::time_of_day},
+        {"10:21:33:120 TX 01 03 00 00 00 02 C4 0B", tod, TimeBase::time_of_day},
+        {"[10:21:33] TX 01 03 00 00 00 02 C4 0B", tod - 120'000'000, TimeBase::time_of_day},
+        {"[10:21:33]\x1B[0;36m[D][uart_debug:114]: >>> 01:03:00:00:00:02:C4:0B\x1B[0m",
+         tod - 120'000'000, TimeBase::time_of_day},
+        {"2024-05-01 10:21:33.120 TX 01 03 00 00 00 02 C4 0B", day + tod, TimeBase::wall_clock},
+        {"2024-05-01 10:21:33,120 DEBUG send: 0x1 0x3 0x0 0x0 0x0 0x2 0xc4 0xb", day + tod,
+         TimeBase::wall_clock},
+        {"01.05.2024 10:21:33.120 TX 01 03 00 00 00 02 C4 0B", day + tod, TimeBase::wall_clock},
+        {"2024-05-01T10:21:33.120Z TX 01 03 00 00 00 02 C4 0B", day + tod, TimeBase::unix_time},
+        {"2024-05-01T12:21:33.120+02:00 TX 01 03 00 00 00 02 C4 0B", day + tod,
+         TimeBase::unix_time},
+        {"2024/05/01 10:21:33.120 /dev/ttyS0 write 8\n\n01 03 00 00 00 02 c4 0b \n", day + tod,
+         TimeBase::wall_clock},
+        {"01.05.2024 10:21:33.120 TX (8 bytes)\n| 0000: 01 03 00 00 00 02 C4 0B  |........|",
+         day + tod, TimeBase::wall_clock},
+    };
+    for (const TimeCase& c : cases) {
+        SCOPED_TRACE(c.log);
+        auto source = from_memory(std::string(c.log) + "\n", InputFormat::hex);
+        ASSERT_TRUE(source);
+        EXPECT_EQ(source->info().time_base, c.base);
+        EXPECT_TRUE(source->info().timed);
+        Drained d = drain(*source);
+        ASSERT_EQ(d.chunks.size(), 1U);
+        EXPECT_EQ(d.chunks[0].bytes, (Bytes{0x01, 0x03, 0x00, 0x00, 0x00, 0x02, 0xC4, 0x0B}));
+        EXPECT_EQ(d.chunks[0].time, c.time);
+        EXPECT_EQ(d.chunks[0].channel, "master");
+        EXPECT_TRUE(source->remarks().empty());
+    }
+}
+
+// What a log sent (TX, >>>, send, libmodbus's [..]) is the master's when the program that
+// wrote it is the master, as most are; libmodbus says when it is a slave ("Waiting for an
+// indication"), and a log whose sent frames are answers shows it by their shapes.
+TEST(HexReader, DirectionsBecomeChannelsSeenFromTheProgramThatWroteTheLog) {
+    const auto channels = [](const std::string& log) {
+        auto source = from_memory(log, InputFormat::hex, "log.txt");
+        std::vector<std::string> out;
+        if (!source) return out;
+        for (const Chunk& c : drain(*source).chunks) out.push_back(c.channel);
+        return out;
+    };
+    using Channels = std::vector<std::string>;
+    // A master's log: an FC06 write and its echo, the same bytes both ways.
+    EXPECT_EQ(channels("TX: 01 06 00 01 00 03 98 0B\nRX: 01 06 00 01 00 03 98 0B\n"),
+              (Channels{"master", "slave"}));
+    EXPECT_EQ(channels("sent 01 06 00 01 00 03 98 0B\nreceived 01 06 00 01 00 03 98 0B\n"),
+              (Channels{"master", "slave"}));
+    EXPECT_EQ(channels(">>> 01 06 00 01 00 03 98 0B\n<<< 01 06 00 01 00 03 98 0B\n"),
+              (Channels{"master", "slave"}));
+    EXPECT_EQ(channels("[01][06][00][01][00][03][98][0B]\nWaiting for a confirmation...\n"
+                       "<01><06><00><01><00><03><98><0B>\n"),
+              (Channels{"master", "slave"}));
+    // libmodbus as a slave: it receives the requests.
+    EXPECT_EQ(channels("Waiting for an indication...\n<01><06><00><01><00><03><98><0B>\n"
+                       "[01][06][00][01][00][03][98][0B]\n"),
+              (Channels{"master", "slave"}));
+    // A slave simulator's log: it receives reads and sends their answers.
+    EXPECT_EQ(channels("RX: 01 03 00 00 00 02 C4 0B\nTX: 01 03 04 08 9D 00 96 E9 D3\n"
+                       "RX: 01 06 00 01 00 03 98 0B\nTX: 01 06 00 01 00 03 98 0B\n"),
+              (Channels{"master", "slave", "master", "slave"}));
+    // Named outright, whatever wrote the log.
+    EXPECT_EQ(channels("Request: 01 03 00 00 00 02 C4 0B\nResponse: 01 03 04 08 9D 00 96 E9 D3\n"),
+              (Channels{"master", "slave"}));
+    // A read() that returned the adapter's echo of the request and then the answer goes
+    // both ways: no channel, and the framer tells them apart by shape.
+    EXPECT_EQ(channels("TX: 01 03 00 00 00 02 C4 0B\n"
+                       "RX: 01 03 00 00 00 02 C4 0B 01 03 04 08 9D 00 96 E9 D3\n"),
+              (Channels{"master", ""}));
+}
+
+// asyn's traceIOHex prints a header (time, port, write/read and a count) and the bytes
+// under it, 20 a line; a hexdump prints rows under a header. The lines of bytes take the
+// header's time and direction, and the header is no skipped line.
+TEST(HexReader, HeaderLinesGiveTheirTimeAndDirectionToTheBytesUnderThem) {
+    auto source = from_memory(
+        "2024/05/01 10:21:33.120 /dev/ttyS0 write 8\n"
+        "\n"
+        "03 03 00 00 00 14 44 27 \n"
+        "2024/05/01 10:21:33.183 /dev/ttyS0 read 21\n"
+        "\n"
+        "03 03 28 01 10 01 11 01 12 01 13 01 14 01 15 01 16 01 17 01 \n"
+        "18 \n"
+        "a line of prose\n"
+        "03 03 \n",
+        InputFormat::hex, "asyn.log");
+    ASSERT_TRUE(source);
+    Drained d = drain(*source);
+    ASSERT_FALSE(d.error);
+    ASSERT_EQ(d.chunks.size(), 3U);
+    const Nanos write_time = 1714558893120000000;
+    const Nanos read_time = 1714558893183000000;
+    EXPECT_EQ(d.chunks[0].time, write_time);
+    EXPECT_EQ(d.chunks[0].channel, "master");
+    EXPECT_TRUE(d.chunks[0].whole_frame);
+    EXPECT_EQ(d.chunks[1].time, read_time);
+    EXPECT_EQ(d.chunks[1].channel, "slave");
+    EXPECT_EQ(d.chunks[1].bytes.size(), 20U);
+    EXPECT_FALSE(d.chunks[1].whole_frame);
+    // The wrapped frame's last line: one byte, the header's time and direction.
+    EXPECT_EQ(d.chunks[2].bytes, (Bytes{0x18}));
+    EXPECT_EQ(d.chunks[2].time, read_time);
+    EXPECT_EQ(d.chunks[2].channel, "slave");
+    EXPECT_EQ(d.chunks[2].source_line, 7);
+    // Prose ends the header's reach: "03 03" is two bytes of nothing.
+    EXPECT_EQ(source->remarks().back(), "skipped 2 lines with no frame: 8-9");
+}
+
+// A log that gives a direction with its frames (a firmware's log, a terminal's) also
+// prints other things: an address, a MAC, a CRC it computed. Such a line, without a
+// direction and not one whole frame, is skipped and listed.
+TEST(HexReader, ALogThatGivesDirectionsSkipsBytesWithoutOne) {
+    auto source = from_memory(
+        "[20:21:58][C][wifi:577]:   Local MAC: 24:0A:C4:5F:21:30\n"
+        "[20:22:02][D][uart_debug:114]: >>> 06:03:00:00:00:02:C5:BC\n"
+        "[20:22:02][D][uart_debug:114]: <<< 06:03:04:00:E6\n"
+        "[20:22:02][D][uart_debug:114]: <<< 00:00:6D:04\n"
+        "[20:22:03][D][raw:010]: 06:03:00:00:00:02:C5:BC\n"
+        "[20:22:12][D][uart_debug:114]: >>> 06:03:00:00:00:02:C5:BC\n"
+        "[20:22:12][D][uart_debug:114]: <<< 06:03:04:00:E5:00:00:9D:05\n"
+        "[20:22:12][W][modbus:108]: Modbus CRC Check failed! 059D!=049D\n",
+        InputFormat::hex, "esphome.log");
+    ASSERT_TRUE(source);
+    Drained d = drain(*source);
+    ASSERT_FALSE(d.error);
+    std::vector<int> lines;
+    for (const Chunk& c : d.chunks) lines.push_back(c.source_line);
+    // Line 5 has no direction but is one whole frame: kept.
+    EXPECT_EQ(lines, (std::vector<int>{2, 3, 4, 5, 6, 7}));
+    EXPECT_EQ(source->remarks().back(),
+              "skipped 2 lines with bytes but no direction, in a log that gives one with its "
+              "frames: 1, 8");
+}
+
+// Lines made of the pieces of every line style (brackets, joiners, 0x, counts, offsets,
+// ASCII columns, times, escapes, directions) in random order and cut anywhere: chunks or
+// skipped lines, never a crash or an overrun (the sanitizer builds check the reads).
+TEST(HexReader, LinesOfRandomLogPiecesNeverCrash) {
+    const std::vector<std::string> pieces = {"01",
+                                             "0B",
+                                             "c5",
+                                             "0x",
+                                             "0x6",
+                                             "0x06",
+                                             "0x0103000000",
+                                             "[",
+                                             "]",
+                                             "[01]",
+                                             "<",
+                                             ">",
+                                             "<0B>",
+                                             "-",
+                                             ":",
+                                             ".",
+                                             "06:03",
+                                             "06-03-",
+                                             "06.03.00",
+                                             "(",
+                                             ")",
+                                             "(8 bytes)",
+                                             "8",
+                                             "bytes",
+                                             "more",
+                                             "len=",
+                                             "|",
+                                             "|....|",
+                                             "0000:",
+                                             "00000000  ",
+                                             "\x1B[0;36m",
+                                             "\x1B[",
+                                             "\x1B",
+                                             "TX",
+                                             "Rx:",
+                                             ">>>",
+                                             "<<<",
+                                             "write",
+                                             "read",
+                                             "10:21:33",
+                                             ".120",
+                                             ",5",
+                                             ":120",
+                                             "2024-05-01",
+                                             "T",
+                                             "Z",
+                                             "+08:00",
+                                             "01.05.2024 ",
+                                             "#",
+                                             "//",
+                                             "H",
+                                             "主机",
+                                             "：",
+                                             "←",
+                                             " ",
+                                             " ",
+                                             " ",
+                                             "\t",
+                                             "Waiting for an indication",
+                                             "\xE6"};
+    std::mt19937 random(2024);
+    for (int round = 0; round < 400; ++round) {
+        std::string text;
+        for (int line = 0; line < 20; ++line) {
+            const int n = static_cast<int>(random() % 12);
+            for (int k = 0; k < n; ++k) text += pieces[random() % pieces.size()];
+            text += '\n';
+        }
+        text.resize(random() % (text.size() + 1));
+        auto source = source_from_memory(text, "random.log", InputFormat::hex);
+        ASSERT_TRUE(source);
+        Drained d = drain(**source);
+        ASSERT_FALSE(d.error);
+        for (const Chunk& c : d.chunks) {
+            ASSERT_FALSE(c.bytes.empty());
+            if (c.whole_frame) {
+                ASSERT_GE(c.bytes.size(), kMinAdu);
+            }
+            ASSERT_TRUE(c.channel.empty() || c.channel == "master" || c.channel == "slave");
+        }
+        (void)(*source)->remarks();
+    }
+}
+
+// Text that is no log (a README, a source file) read as one says so, beside the lines it
+// skipped.
+TEST(HexReader, SaysWhenTheTextIsNoLog) {
+    std::string text = "# A project\n\nSome prose about 01 03 00 00 00 02 C4 0B.\n";
+    for (int i = 0; i < 10; ++i) text += "More prose, line " + std::to_string(i) + ".\n";
+    auto source = from_memory(text, InputFormat::hex, "README.md");
+    ASSERT_TRUE(source);
+    Drained d = drain(*source);
+    ASSERT_EQ(d.chunks.size(), 1U);
+    EXPECT_EQ(source->remarks(),
+              (std::vector<std::string>{"only 1 of 11 lines held bytes in hex: this does not "
+                                        "look like a hex log (10 lines skipped)"}));
+    auto prose = from_memory("hello world\n", InputFormat::hex, "hello.txt");
+    ASSERT_TRUE(prose);
+    drain(*prose);
+    EXPECT_EQ(prose->remarks(),
+              (std::vector<std::string>{
+                  "no line held bytes in hex: this is not a hex log (1 line skipped)"}));
+}
+
 TEST(HexReader, EmptyAndCommentOnlyLogsHaveNoRemark) {
     auto source = from_memory("# nothing\n\n", InputFormat::hex);
     ASSERT_TRUE(source);
@@ -639,7 +1006,8 @@ TEST(SourcesDetect, RecognisesEachFormat) {
     EXPECT_EQ(detect_input_format("010300000002C40B"), InputFormat::hex);
     EXPECT_EQ(detect_input_format(std::string("\x01\x03\x00\x00\x00\x02\xC4\x0B", 8)),
               InputFormat::raw);
-    EXPECT_EQ(detect_input_format("01 03 00 00\x1B[0m\n"), InputFormat::raw);    // control byte
+    EXPECT_EQ(detect_input_format("01 03 00 00\x1B\x03\n"), InputFormat::raw);   // control bytes
+    EXPECT_EQ(detect_input_format("01 03 00 00\x1B(B\n"), InputFormat::raw);     // not a colour
     EXPECT_EQ(detect_input_format("caf\xE9: 01 03 00 00\n"), InputFormat::raw);  // Latin-1
     // Text with no frame in its head is still a log: the hex reader then lists the lines
     // it skipped instead of decoding prose as bus noise.
@@ -649,6 +1017,48 @@ TEST(SourcesDetect, RecognisesEachFormat) {
     EXPECT_EQ(detect_input_format(""), InputFormat::raw);
     // The sniffed head may end inside a UTF-8 character.
     EXPECT_EQ(detect_input_format("01 03 00 00 00 02 C4 0B\n\xE4\xB8"), InputFormat::hex);
+}
+
+// A logger that colours its lines (ESPHome's) writes escapes: the text is still a log.
+TEST(SourcesDetect, ColouredTextIsALog) {
+    EXPECT_EQ(detect_input_format("[20:22:02]\x1B[0;36m[D][uart_debug:114]: >>> "
+                                  "06:03:00:00:00:02:C5:BC\x1B[0m\n"),
+              InputFormat::hex);
+    EXPECT_EQ(detect_input_format("01 03 00 00\x1B[0m\n"), InputFormat::hex);
+    // The sniffed head may end inside an escape.
+    EXPECT_EQ(detect_input_format("01 03 00 00\x1B[0;3"), InputFormat::hex);
+}
+
+// Every file the repository holds as an example of a format is detected as that format:
+// each hex log as hex, and no capture, raw dump or pcap as a hex log.
+TEST(SourcesDetect, EveryBundledFileIsDetectedAsItsFormat) {
+    const std::vector<std::pair<std::string, InputFormat>> by_extension = {
+        {".log", InputFormat::hex}, {".hex", InputFormat::hex},   {".rtucap", InputFormat::capture},
+        {".bin", InputFormat::raw}, {".pcap", InputFormat::pcap}, {".pcapng", InputFormat::pcap},
+    };
+    std::size_t files = 0;
+    std::size_t logs = 0;
+    const std::filesystem::path root(RTUSCOPE_SOURCE_DIR);
+    for (const char* dir : {"captures", "tests/data", "fuzz/corpus"}) {
+        for (const auto& entry : std::filesystem::recursive_directory_iterator(root / dir)) {
+            if (!entry.is_regular_file()) continue;
+            const std::string ext = entry.path().extension().string();
+            const auto expected = std::find_if(by_extension.begin(), by_extension.end(),
+                                               [&](const auto& e) { return e.first == ext; });
+            if (expected == by_extension.end()) continue;
+            SCOPED_TRACE(entry.path().string());
+            std::string head(4096, '\0');
+            std::FILE* f = std::fopen(entry.path().c_str(), "rb");
+            ASSERT_NE(f, nullptr);
+            head.resize(std::fread(head.data(), 1, head.size(), f));
+            std::fclose(f);
+            EXPECT_EQ(detect_input_format(head), expected->second);
+            ++files;
+            if (expected->second == InputFormat::hex) ++logs;
+        }
+    }
+    EXPECT_GT(files, 50U);
+    EXPECT_GT(logs, 20U);
 }
 
 TEST(SourcesDetect, AutomaticFromMemoryPicksTheReader) {

@@ -1,5 +1,5 @@
 // Internal to the sources module: the buffered input every reader pulls from, the
-// reader factories, and the hex-line scanner that detection shares with the hex reader.
+// reader factories, and the helpers the readers share.
 #pragma once
 
 #include <array>
@@ -58,16 +58,6 @@ class InputBuffer {
 std::unique_ptr<ChunkSource> make_raw_reader(std::unique_ptr<InputBuffer> in);
 Result<std::unique_ptr<ChunkSource>> make_capture_reader(std::unique_ptr<InputBuffer> in);
 Result<std::unique_ptr<ChunkSource>> make_hex_reader(std::unique_ptr<InputBuffer> in);
-
-// What a hex log line holds: the bytes at its end and the decoration in front of them.
-struct HexLine {
-    std::size_t byte_count = 0;   // bytes in the run at the end (0: none)
-    std::string_view decoration;  // everything before the run
-};
-
-// Scans one line by the hex-log rules (sources.hpp, hex_reader.cpp). Appends the run's
-// bytes to `bytes` when it is not null.
-HexLine scan_hex_line(std::string_view line, std::vector<std::uint8_t>* bytes);
 
 // Blank, or a comment line ('#' or "//" first): not a frame and not worth a remark.
 bool is_blank_or_comment(std::string_view line);

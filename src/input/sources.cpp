@@ -167,6 +167,20 @@ bool valid_utf8(std::string_view text) {
     return true;
 }
 
+// The length of the colour escape at the start of `text` (ESC [ digits and ';' then a
+// letter, as a logger that colours its lines writes, ESPHome's among them), 0 if there is
+// none. One cut off by the end of the sniffed head counts.
+std::size_t colour_escape_length(std::string_view text) {
+    constexpr std::size_t kLongest = 16;
+    if (text.size() < 2 || text[1] != '[') return text.size() == 1 ? 1 : 0;
+    for (std::size_t i = 2; i < text.size() && i < kLongest; ++i) {
+        const char c = text[i];
+        if ((c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z')) return i + 1;
+        if ((c < '0' || c > '9') && c != ';') return 0;
+    }
+    return text.size() < kLongest ? text.size() : 0;
+}
+
 Result<std::unique_ptr<ChunkSource>> make_source(std::unique_ptr<detail::InputBuffer> in,
                                                  InputFormat format) {
     switch (format) {
@@ -214,8 +228,14 @@ InputFormat detect_input_format(std::string_view head) {
     if (looks_like_pcap(head)) return InputFormat::pcap;
     if (head.starts_with(kUtf8Bom)) head.remove_prefix(kUtf8Bom.size());
     if (head.starts_with("# rtuscope capture")) return InputFormat::capture;
-    for (const char ch : head) {
-        const auto c = static_cast<unsigned char>(ch);
+    for (std::size_t i = 0; i < head.size(); ++i) {
+        const auto c = static_cast<unsigned char>(head[i]);
+        if (c == 0x1B) {
+            const std::size_t n = colour_escape_length(head.substr(i));
+            if (n == 0) return InputFormat::raw;
+            i += n - 1;
+            continue;
+        }
         if ((c < 0x20 && c != '\t' && c != '\r' && c != '\n') || c == 0x7F) {
             return InputFormat::raw;
         }
@@ -226,7 +246,8 @@ InputFormat detect_input_format(std::string_view head) {
         text = valid_utf8(head.substr(0, head.size() - cut));
     }
     if (!text || head.empty()) return InputFormat::raw;
-    // Text is a log or a manual: read as hex, which says which lines held no frame.
+    // Text (coloured or not) is a log or a manual: read as hex, which says which lines
+    // held no frame.
     return InputFormat::hex;
 }
 
