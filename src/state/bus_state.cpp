@@ -194,7 +194,7 @@ void BusState::reset() {
     frames_.clear();
     bytes_.clear();
     errors_.clear();
-    anomalies_.clear();
+    anomaly_count_ = 0;
 }
 
 SlaveState& BusState::slave_of(std::uint8_t address, Nanos at, const Profile* profile) {
@@ -381,8 +381,13 @@ void BusState::take_values(const Record& record, bool write) {
 }
 
 void BusState::note_anomaly(const Record& record) {
-    std::string line = fmt::format("#{} ", record.number);
-    if (record.kind != Kind::noise) fmt::format_to(std::back_inserter(line), "slave {} ", record.frame.slave());
+    std::string& line = anomalies_[anomaly_count_ % kAnomalies];
+    ++anomaly_count_;
+    line.clear();
+    fmt::format_to(std::back_inserter(line), "#{} ", record.number);
+    if (record.kind != Kind::noise) {
+        fmt::format_to(std::back_inserter(line), "slave {} ", record.frame.slave());
+    }
     if (record.kind == Kind::exception) {
         line += record.decoded.summary;
         if (!record.notes.empty()) line += "; ";
@@ -393,8 +398,15 @@ void BusState::note_anomaly(const Record& record) {
         line += n.text;
         first = false;
     }
-    if (anomalies_.size() == kAnomalies) anomalies_.erase(anomalies_.begin());
-    anomalies_.push_back(std::move(line));
+}
+
+std::vector<std::string> BusState::anomalies() const {
+    std::vector<std::string> out;
+    const std::size_t n = std::min(anomaly_count_, kAnomalies);
+    for (std::size_t i = anomaly_count_ - n; i < anomaly_count_; ++i) {
+        out.push_back(anomalies_[i % kAnomalies]);
+    }
+    return out;
 }
 
 void BusState::add(const Record& record) {

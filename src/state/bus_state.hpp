@@ -186,8 +186,8 @@ class BusState {
     [[nodiscard]] const PerSecond& errors() const { return errors_; }
     // The latest time any record carried: "now" of a replay.
     [[nodiscard]] Nanos last_time() const { return last_time_; }
-    // The notes of the last records that had any, newest last.
-    [[nodiscard]] const std::vector<std::string>& anomalies() const { return anomalies_; }
+    // What the last flagged records said (their notes; an exception's code), newest last.
+    [[nodiscard]] std::vector<std::string> anomalies() const;
     static constexpr std::size_t kAnomalies = 8;
 
   private:
@@ -223,7 +223,9 @@ class BusState {
     PerSecond bytes_;
     PerSecond errors_;
     Nanos last_time_ = kNoTime;
-    std::vector<std::string> anomalies_;
+    // The last kAnomalies of them, each slot's text rewritten in its own room.
+    std::array<std::string, kAnomalies> anomalies_;
+    std::size_t anomaly_count_ = 0;  // ever noted
     std::string scratch_;     // intern()'s
     std::string value_text_;  // a value without a profile: its word in decimal
     std::string raw_text_;    // and in hex

@@ -113,7 +113,7 @@ std::string bus_line(const BusState& state, const StateView& view) {
 
 std::vector<StyledLine> slave_table(const BusState& state, const StateView& view) {
     std::vector<StyledLine> lines;
-    lines.push_back({"slave profile        polls/s answered p50 ms p95 ms  exc no ans  crc last seen",
+    lines.push_back({"slave profile         polls/s answered p50 ms p95 ms  exc no ans  crc last seen",
                      LineStyle::heading});
     for (const SlaveState* s : state.slaves()) {
         const FunctionStats f = state.figures(s->address);
@@ -130,7 +130,7 @@ std::vector<StyledLine> slave_table(const BusState& state, const StateView& view
         const std::string answered_text =
             f.requests == 0 ? "-" : fmt::format("{:.1f} %", share);
         std::string line = right(std::to_string(s->address), 5) + ' ' +
-                           cell(s->profile != nullptr ? s->profile->name : "-", 14) + ' ' +
+                           cell(s->profile != nullptr ? s->profile->name : "-", 15) + ' ' +
                            right(rate, 7) + ' ' + right(answered_text, 8) + ' ' +
                            right(ms_text(s->turnarounds.percentile(50)), 6) + ' ' +
                            right(ms_text(s->turnarounds.percentile(95)), 6) + ' ' +
@@ -215,9 +215,9 @@ std::string state_text(const BusState& state, const StateView& view) {
                            s->profile != nullptr ? s->profile->name : "no profile");
         for (const StyledLine& l : registers) out += l.text + '\n';
     }
-    if (!state.anomalies().empty()) {
+    if (const std::vector<std::string> anomalies = state.anomalies(); !anomalies.empty()) {
         out += "\nrecent anomalies:\n";
-        for (const std::string& a : state.anomalies()) out += "  " + a + '\n';
+        for (const std::string& a : anomalies) out += "  " + a + '\n';
     }
     if (state.forgotten_registers() > 0) {
         out += fmt::format("({} registers forgotten, not updated for the longest, to keep {})\n",

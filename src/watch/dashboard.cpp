@@ -68,7 +68,9 @@ class Dashboard final : public Display {
             init_pair(kWritten, COLOR_MAGENTA, -1);
         }
     }
-    ~Dashboard() override { endwin(); }
+    ~Dashboard() override {
+        if (isendwin() == FALSE) endwin();
+    }
     Dashboard(const Dashboard&) = delete;
     Dashboard& operator=(const Dashboard&) = delete;
 
@@ -85,14 +87,19 @@ class Dashboard final : public Display {
     void finish(BusState& state, Nanos now) override {
         ended_ = true;
         draw(state, now);
-        if (!options_.replay || quit_) return;
-        // A replay ends on its last state, kept on screen until `q`.
-        nodelay(stdscr, FALSE);
-        timeout(500);
-        while (!quit_) {
-            read_keys(state, now);
-            draw(state, now);
+        // A replay that reached its end stays on screen until `q`; a stop (q, a signal,
+        // --seconds) ends at once.
+        const bool stopped = quit_ || (options_.quit != nullptr && options_.quit->load());
+        if (options_.replay && !stopped) {
+            nodelay(stdscr, FALSE);
+            timeout(500);
+            while (!quit_ && (options_.quit == nullptr || !options_.quit->load())) {
+                read_keys(state, now);
+                draw(state, now);
+            }
         }
+        // The terminal back as it was, before the run's summary is printed on it.
+        endwin();
     }
 
   private:
@@ -320,7 +327,7 @@ class Dashboard final : public Display {
             }
         }
         // Anomalies, newest last, above the status line.
-        const auto& anomalies = state.anomalies();
+        const std::vector<std::string> anomalies = state.anomalies();
         int arow = LINES - footer;
         const std::size_t shown = std::min(kAnomalyLines, anomalies.size());
         for (std::size_t i = anomalies.size() - shown; i < anomalies.size(); ++i) {
