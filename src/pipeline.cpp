@@ -133,6 +133,7 @@ Status run_pipeline(ChunkSource& source, const PipelineOptions& options, RecordS
         if (chunk.bytes.empty()) {
             framer.idle(chunk.time, options.idle_margin);
             transactions.tick(chunk.time);
+            sink.idle(chunk.time);
             continue;
         }
         line_check.chunk(chunk);

@@ -78,6 +78,9 @@ class RecordSink {
     virtual void end(const Totals& totals, const std::vector<std::string>& remarks) = 0;
     // Live output: push what has been written to its reader now.
     virtual void flush() {}
+    // A live or paced source said that nothing came until `now` (an empty chunk): a
+    // display refreshes its ages and reads its keys.
+    virtual void idle(Nanos /*now*/) {}
 };
 
 // Decodes everything the source delivers into the sink. On a source error, everything

@@ -23,6 +23,7 @@
 #include "output/pcap_writer.hpp"
 #include "output/sinks.hpp"
 #include "pipeline.hpp"
+#include "state/bus_state.hpp"
 #include "stats/report.hpp"
 #include "support.hpp"
 #include "util/text.hpp"
@@ -238,6 +239,22 @@ TEST(Allocations, NonePerFrameDecodingToJsonLines) {
 
 TEST(Allocations, NonePerFrameDecodingToTheValuesCsv) {
     expect_no_allocation_per_frame_into([](FILE* f) { return make_values_csv_sink(f); });
+}
+
+// The bus state of `watch`: every value kept in its register's room, no node per frame.
+TEST(Allocations, NonePerFrameKeepingTheBusState) {
+    expect_no_allocation_per_frame_into([](FILE* /*f*/) -> std::unique_ptr<RecordSink> {
+        class StateSink final : public RecordSink {
+          public:
+            void begin(const SessionInfo& session) override { state_.begin(session); }
+            void record(const Record& r) override { state_.add(r); }
+            void end(const Totals&, const std::vector<std::string>&) override {}
+
+          private:
+            BusState state_;
+        };
+        return std::make_unique<StateSink>();
+    });
 }
 
 // Each packet record is built in the same room.

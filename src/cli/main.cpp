@@ -15,6 +15,7 @@
 #include "output/block_output.hpp"
 #include "profiles_command.hpp"
 #include "sniff_command.hpp"
+#include "watch_command.hpp"
 
 namespace {
 
@@ -104,6 +105,7 @@ int run(int argc, char** argv) {
     rtuscope::cli::add_stats_command(app, exit_code);
     rtuscope::cli::add_sniff_command(app, exit_code);
     rtuscope::cli::add_demo_command(app, exit_code);
+    rtuscope::cli::add_watch_command(app, exit_code);
     rtuscope::cli::add_profiles_command(app, exit_code);
     try {
         app.parse(argc, argv);

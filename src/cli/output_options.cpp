@@ -117,6 +117,12 @@ void add_stats_options(CLI::App& cmd, OutputArgs& args) {
     add_bus_options(cmd, args.bus);
 }
 
+void add_watch_options(CLI::App& cmd, OutputArgs& args) {
+    add_line_options(cmd, args);
+    cmd.add_flag("--no-color", args.no_color, "No colour (also off when NO_COLOR is set)");
+    add_bus_options(cmd, args.bus);
+}
+
 namespace {
 
 // The device map a capture's header gives (and the profiles it embeds), unless --device

@@ -42,6 +42,8 @@ struct OutputArgs {
 void add_output_options(CLI::App& cmd, OutputArgs& args);
 // The text's look: -t, --hex, --no-values, --no-color.
 void add_display_options(CLI::App& cmd, OutputArgs& args);
+// watch's: line, timeout, --no-color, bus map.
+void add_watch_options(CLI::App& cmd, OutputArgs& args);
 // The statistics command's subset: formats, line, timeout, display, filters, bus map.
 void add_stats_options(CLI::App& cmd, OutputArgs& args);
 

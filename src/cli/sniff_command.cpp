@@ -21,23 +21,21 @@
 namespace rtuscope::cli {
 namespace {
 
-struct LiveArgs {
-    OutputArgs output;
-    std::string write_file;
-    double seconds = 0;  // 0: until stopped
-};
-
 void add_live_options(CLI::App& cmd, LiveArgs& args) {
+    add_recording_options(cmd, args);
+    add_output_options(cmd, args.output);
+}
+
+}  // namespace
+
+void add_recording_options(CLI::App& cmd, LiveArgs& args) {
     cmd.add_option("-w,--write", args.write_file,
                    "Also record the raw chunks to FILE in the native capture format")
         ->type_name("FILE");
     cmd.add_option("--seconds", args.seconds, "Stop after this many seconds (default: Ctrl-C)")
         ->check(CLI::PositiveNumber);
-    add_output_options(cmd, args.output);
 }
 
-// Runs the pipeline on open ports until they go away, --seconds pass or a signal comes;
-// a short summary goes to stderr.
 int run_live(const LiveArgs& args, Decoding& decoding, TtyOptions tty) {
     tty.line = live_line(decoding);
     tty.stop = &g_stop;
@@ -76,6 +74,44 @@ int run_live(const LiveArgs& args, Decoding& decoding, TtyOptions tty) {
     return 0;
 }
 
+void add_demo_devices(OutputArgs& output) {
+    output.bus.devices.insert(output.bus.devices.begin(),
+                              {"1=zb-uvi485", "2=sensor-analyser", "3=pdu485", "4=zyi-relay"});
+}
+
+int with_demo_bus(const LineSettings& line, const std::function<int(const std::string&)>& body) {
+    auto bus = sim::VirtualBus::create(6, {line, true});
+    if (!bus) return print_error(bus.error()), 1;
+    const std::array<const char*, 4> kinds = {"zb-uvi485", "sensor-analyser", "pdu485",
+                                              "zyi-relay"};
+    std::vector<std::unique_ptr<sim::Device>> devices;
+    for (std::size_t i = 0; i < kinds.size(); ++i) {
+        auto device = sim::start_device(kinds[i], static_cast<std::uint8_t>(i + 1),
+                                        (*bus)->port_path(i + 1), line);
+        if (!device) return print_error(device.error()), 1;
+        devices.push_back(std::move(*device));
+    }
+    // The sniffer opens its port first, so that it hears the master's first request. A
+    // jthread: when the run ends by an exception (an output that cannot be written), it
+    // is joined on the way out, then the master stopped, as on the normal way.
+    std::unique_ptr<sim::Master> master;
+    std::jthread starter([&] {
+        std::this_thread::sleep_for(std::chrono::milliseconds(100));
+        auto started = sim::start_master((*bus)->port_path(0), line, {}, 0, 50);
+        if (started) {
+            master = std::move(*started);
+        } else {
+            print_error(started.error());
+            g_stop.store(true);
+        }
+    });
+    const int code = body((*bus)->port_path(5));
+    starter.join();
+    return code;
+}
+
+namespace {
+
 struct SniffArgs {
     std::vector<std::string> ports;
     LiveArgs live;
@@ -100,45 +136,16 @@ struct DemoArgs {
 // sniffer listens on a port of its own exactly as on a real adapter.
 int run_demo(DemoArgs args) {
     args.live.output.closing_stats = true;
-    args.live.output.bus.devices.insert(
-        args.live.output.bus.devices.begin(),
-        {"1=zb-uvi485", "2=sensor-analyser", "3=pdu485", "4=zyi-relay"});
+    add_demo_devices(args.live.output);
     int exit_code = 0;
     auto decoding = prepare_decoding(args.live.output, exit_code);
     if (!decoding) return exit_code;
-    const LineSettings line = live_line(*decoding);
-
-    auto bus = sim::VirtualBus::create(6, {line, true});
-    if (!bus) return print_error(bus.error()), 1;
-    const std::array<const char*, 4> kinds = {"zb-uvi485", "sensor-analyser", "pdu485",
-                                              "zyi-relay"};
-    std::vector<std::unique_ptr<sim::Device>> devices;
-    for (std::size_t i = 0; i < kinds.size(); ++i) {
-        auto device = sim::start_device(kinds[i], static_cast<std::uint8_t>(i + 1),
-                                        (*bus)->port_path(i + 1), line);
-        if (!device) return print_error(device.error()), 1;
-        devices.push_back(std::move(*device));
-    }
     install_stop_handlers();
-    TtyOptions tty;
-    tty.ports = {(*bus)->port_path(5)};
-    // The sniffer opens its port first, so that it hears the master's first request. A
-    // jthread: when the run ends by an exception (an output that cannot be written), it
-    // is joined on the way out, then the master stopped, as on the normal way.
-    std::unique_ptr<sim::Master> master;
-    std::jthread starter([&] {
-        std::this_thread::sleep_for(std::chrono::milliseconds(100));
-        auto started = sim::start_master((*bus)->port_path(0), line, {}, 0, 50);
-        if (started) {
-            master = std::move(*started);
-        } else {
-            print_error(started.error());
-            g_stop.store(true);
-        }
+    return with_demo_bus(live_line(*decoding), [&](const std::string& port) {
+        TtyOptions tty;
+        tty.ports = {port};
+        return run_live(args.live, *decoding, tty);
     });
-    const int code = run_live(args.live, *decoding, tty);
-    starter.join();
-    return code;
 }
 
 }  // namespace

@@ -1,12 +1,35 @@
 // `rtuscope sniff PORT [PORT_B]`: a live line decoded as it happens, and `rtuscope demo`:
-// the same on a virtual bus of simulated seed devices.
+// the same on a virtual bus of simulated seed devices. The pieces `watch` shares too.
 #pragma once
 
 #include <CLI/CLI.hpp>
+#include <functional>
+#include <string>
+
+#include "input/tty.hpp"
+#include "output_options.hpp"
 
 namespace rtuscope::cli {
 
 void add_sniff_command(CLI::App& app, int& exit_code);
 void add_demo_command(CLI::App& app, int& exit_code);
+
+struct LiveArgs {
+    OutputArgs output;
+    std::string write_file;
+    double seconds = 0;  // 0: until stopped
+};
+// -w and --seconds.
+void add_recording_options(CLI::App& cmd, LiveArgs& args);
+
+// Runs the pipeline on open ports until they go away, --seconds pass or a signal comes;
+// a short summary goes to stderr.
+int run_live(const LiveArgs& args, Decoding& decoding, TtyOptions tty);
+
+// The demo's devices (the four seed devices at 1-4) in front of the user's --device.
+void add_demo_devices(OutputArgs& output);
+// Runs `body` on the port of a virtual bus where the simulated seed devices answer a
+// polling master; returns what it returns.
+int with_demo_bus(const LineSettings& line, const std::function<int(const std::string&)>& body);
 
 }  // namespace rtuscope::cli

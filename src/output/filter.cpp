@@ -275,6 +275,7 @@ class FilterSink final : public RecordSink {
         inner_->end(t, remarks);
     }
     void flush() override { inner_->flush(); }
+    void idle(Nanos now) override { inner_->idle(now); }
 
   private:
     RecordFilter filter_;
@@ -299,6 +300,9 @@ class TeeSink final : public RecordSink {
     }
     void flush() override {
         for (auto& sink : sinks_) sink->flush();
+    }
+    void idle(Nanos now) override {
+        for (auto& sink : sinks_) sink->idle(now);
     }
 
   private:

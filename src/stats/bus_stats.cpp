@@ -6,9 +6,7 @@
 #include <string_view>
 
 namespace rtuscope {
-namespace {
-
-void merge_counts(FunctionStats& into, const FunctionStats& from) {
+void merge_function_stats(FunctionStats& into, const FunctionStats& from) {
     into.requests += from.requests;
     into.answers += from.answers;
     into.exceptions += from.exceptions;
@@ -20,8 +18,6 @@ void merge_counts(FunctionStats& into, const FunctionStats& from) {
     into.unsolicited += from.unsolicited;
     into.turnarounds.merge(from.turnarounds);
 }
-
-}  // namespace
 
 void BusStats::add(const Record& record) {
     const Frame& f = record.frame;
@@ -111,7 +107,7 @@ void BusStats::finish() {
     all_ = {};
     for (auto& [key, s] : functions_) {
         s.turnarounds.finish();
-        merge_counts(all_, s);
+        merge_function_stats(all_, s);
     }
     for (auto& [key, p] : polls_) p.cycles.finish();
 }

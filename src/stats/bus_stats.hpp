@@ -25,7 +25,6 @@
 
 namespace rtuscope {
 
-// Figures of one slave and function code (the function without its exception bit).
 // Figures of one slave and function code (the function without its exception bit). Every
 // request that awaits an answer has one outcome: requests = answers + exceptions + broken +
 // no_answer.
@@ -50,6 +49,9 @@ struct FunctionStats {
     // how fast the device reacts), where the input has timing.
     DurationCounts turnarounds;
 };
+
+// Adds `from`'s counts to `into`'s, turnarounds pooled (`from`'s finished first).
+void merge_function_stats(FunctionStats& into, const FunctionStats& from);
 
 // A poll: requests with the same slave, function and first 4 data bytes (for reads the
 // start address and quantity). Its cycle is the time between two successive requests.

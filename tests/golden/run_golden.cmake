@@ -1,8 +1,9 @@
-# Runs one golden test, one line of MANIFEST: `rtuscope decode INPUT OPTIONS...` from the
+# Runs one golden test, one line of MANIFEST: `rtuscope COMMAND INPUT OPTIONS...` from the
 # working directory with TZ=UTC (the text shows local time), its standard output compared
 # byte for byte with GOLDEN_DIR/NAME and its exit status with EXPECTED_RC. The output goes to OUT_DIR/NAME; on a difference it
 # stays there and a unified diff is printed, otherwise it is removed.
 #   RTUSCOPE     the binary              NAME     the expected file's name
+#   COMMAND      decode, stats, watch...
 #   INPUT        the input               OPTIONS  rtuscope's options, a ;-list
 #   EXPECTED_RC  0 unless the line says exit=N
 #   GOLDEN_DIR   tests/golden            OUT_DIR  where the actual output goes
@@ -10,12 +11,12 @@ if(NOT DEFINED EXPECTED_RC)
   set(EXPECTED_RC 0)
 endif()
 list(JOIN OPTIONS " " shown_options)
-set(command "rtuscope decode ${INPUT} ${shown_options}")
+set(command "rtuscope ${COMMAND} ${INPUT} ${shown_options}")
 set(expected_file ${GOLDEN_DIR}/${NAME})
 set(actual_file ${OUT_DIR}/${NAME})
 file(MAKE_DIRECTORY ${OUT_DIR})
 set(ENV{TZ} UTC)
-execute_process(COMMAND ${RTUSCOPE} decode ${INPUT} ${OPTIONS}
+execute_process(COMMAND ${RTUSCOPE} ${COMMAND} ${INPUT} ${OPTIONS}
   OUTPUT_FILE ${actual_file} ERROR_VARIABLE errors RESULT_VARIABLE rc)
 
 set(failed FALSE)

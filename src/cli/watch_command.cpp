@@ -1,0 +1,146 @@
+#include "watch_command.hpp"
+
+#include <fmt/format.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "errors.hpp"
+#include "input/paced_source.hpp"
+#include "input/sources.hpp"
+#include "sniff_command.hpp"
+#include "stop_signals.hpp"
+#include "watch/watch.hpp"
+
+namespace rtuscope::cli {
+namespace {
+
+struct WatchArgs {
+    std::vector<std::string> inputs;  // ports, or one file
+    bool demo = false;
+    bool plain = false;
+    double interval_s = 5;
+    std::string speed = "1";
+    LiveArgs live;
+};
+
+bool is_port(const std::string& path) {
+    struct stat st {};
+    return ::stat(path.c_str(), &st) == 0 && S_ISCHR(st.st_mode);
+}
+
+// The display the options and stdout ask for.
+std::unique_ptr<Display> make_display(const WatchArgs& args, bool replay) {
+    if (args.plain || isatty(STDOUT_FILENO) == 0) {
+        return make_plain_display(stdout, static_cast<Nanos>(std::llround(args.interval_s * 1e9)));
+    }
+    DashboardOptions options;
+    options.color = !args.live.output.no_color;
+    options.quit = &g_stop;
+    options.replay = replay;
+    return make_dashboard(options);
+}
+
+// A capture, dump, log or pcap replayed at its own pace (or at once with --speed max).
+int watch_file(const WatchArgs& args, double speed) {
+    auto opened = open_source(args.inputs.front(), InputFormat::automatic);
+    if (!opened) return print_error(opened.error()), 1;
+    int exit_code = 0;
+    auto decoding = prepare_decoding(args.live.output, exit_code, &(*opened)->info());
+    if (!decoding) return exit_code;
+    std::unique_ptr<ChunkSource> source = std::move(*opened);
+    if (speed > 0) source = pace_source(std::move(source), speed);
+    install_stop_handlers();
+    decoding->options.stop = &g_stop;
+    BusState state;
+    Status status = ok_status();
+    {
+        const std::unique_ptr<Display> display = make_display(args, true);
+        WatchSink sink(state, *display);
+        status = run_pipeline(*source, decoding->options, sink);
+    }
+    if (!status) return print_error(status.error()), 1;
+    return stop_signal() != 0 ? 128 + stop_signal() : 0;
+}
+
+int watch_live(WatchArgs args) {
+    if (args.demo) add_demo_devices(args.live.output);
+    int exit_code = 0;
+    auto decoding = prepare_decoding(args.live.output, exit_code);
+    if (!decoding) return exit_code;
+    install_stop_handlers();
+    BusState state;
+    const std::unique_ptr<Display> display = make_display(args, false);
+    decoding->sink = std::make_unique<WatchSink>(state, *display);
+    auto run = [&](std::vector<std::string> ports) {
+        TtyOptions tty;
+        tty.ports = std::move(ports);
+        return run_live(args.live, *decoding, tty);
+    };
+    const int code = args.demo ? with_demo_bus(live_line(*decoding),
+                                               [&](const std::string& port) { return run({port}); })
+                               : run(args.inputs);
+    // A live run ends by being stopped: a signal is its normal end, as for sniff.
+    return code;
+}
+
+int run_watch(WatchArgs args) {
+    if (args.demo == !args.inputs.empty()) {
+        print_error(Error{"watch takes a port (or two), a file, or --demo"});
+        return 2;
+    }
+    double speed = 0;  // 0: as fast as it reads
+    if (args.speed != "max") {
+        try {
+            std::size_t used = 0;
+            speed = std::stod(args.speed, &used);
+            if (used != args.speed.size() || !(speed > 0) || !std::isfinite(speed)) throw 0;
+        } catch (...) {
+            print_error(Error{fmt::format("--speed: '{}' is not a positive number or 'max'",
+                                          args.speed)});
+            return 2;
+        }
+    }
+    if (!args.demo && !is_port(args.inputs.front())) {
+        if (args.inputs.size() > 1) {
+            print_error(Error{fmt::format("{} is not a port: watch replays one file at a time",
+                                          args.inputs.front())});
+            return 2;
+        }
+        return watch_file(args, speed);
+    }
+    return watch_live(std::move(args));
+}
+
+}  // namespace
+
+void add_watch_command(CLI::App& app, int& exit_code) {
+    auto args = std::make_shared<WatchArgs>();
+    CLI::App* cmd = app.add_subcommand(
+        "watch",
+        "The bus's state: every slave and register, live on a terminal dashboard or as text "
+        "tables (a port, two ports, a capture replayed, or --demo)");
+    cmd->add_option("INPUT", args->inputs,
+                    "Serial port(s) as for sniff, or a capture file to replay at its own pace")
+        ->expected(0, 2);
+    cmd->add_flag("--demo", args->demo,
+                  "Watch the simulated seed devices on a virtual bus (no hardware)");
+    cmd->add_flag("--plain", args->plain,
+                  "Print the tables as text every --interval seconds instead of the dashboard "
+                  "(the default when stdout is not a terminal)");
+    cmd->add_option("--interval", args->interval_s,
+                    "Seconds between the plain tables, on the input's clock (default 5)")
+        ->check(CLI::PositiveNumber);
+    cmd->add_option("--speed", args->speed,
+                    "Replay a file this many times as fast as it was recorded, or 'max' for its "
+                    "final state at once (default 1)");
+    add_recording_options(*cmd, args->live);
+    add_watch_options(*cmd, args->live.output);
+    cmd->callback([args, &exit_code] { exit_code = run_watch(*args); });
+}
+
+}  // namespace rtuscope::cli

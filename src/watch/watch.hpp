@@ -1,0 +1,53 @@
+// `rtuscope watch`: the bus's state (state/bus_state.hpp) kept up to date from the
+// pipeline's records and shown, either full-screen on a terminal (ncurses) or as plain
+// text tables every few seconds.
+#pragma once
+
+#include <atomic>
+#include <cstdio>
+#include <memory>
+#include <string>
+
+#include "pipeline.hpp"
+#include "state/bus_state.hpp"
+
+namespace rtuscope {
+
+// Shows the state; called for every record and every idle tick, it decides itself when
+// to draw. `now`: the records' clock (a replay's capture time, a live run's wall clock).
+class Display {
+  public:
+    virtual ~Display() = default;
+    virtual void show(BusState& state, Nanos now) = 0;
+    // The input ended (or the run was stopped): the last state.
+    virtual void finish(BusState& state, Nanos now) = 0;
+};
+
+// Tables as text on `out` each time `interval` passes on the records' clock, and at the
+// end: for cron, logs and terminals without a type.
+std::unique_ptr<Display> make_plain_display(std::FILE* out, Nanos interval);
+
+struct DashboardOptions {
+    bool color = true;              // NO_COLOR and --no-color turn it off
+    std::atomic<bool>* quit = nullptr;  // set by `q`: the run stops
+    bool replay = false;            // the input is a file: at its end, wait for `q`
+};
+// The full-screen dashboard on the terminal (ncurses); draws at most 10 times a second.
+std::unique_ptr<Display> make_dashboard(const DashboardOptions& options);
+
+// The pipeline's sink for `watch`: records into the state, the state onto the display.
+class WatchSink final : public RecordSink {
+  public:
+    WatchSink(BusState& state, Display& display) : state_(state), display_(display) {}
+    void begin(const SessionInfo& session) override { state_.begin(session); }
+    void record(const Record& record) override;
+    void idle(Nanos now) override;
+    void end(const Totals& totals, const std::vector<std::string>& remarks) override;
+
+  private:
+    BusState& state_;
+    Display& display_;
+    Nanos now_ = kNoTime;
+};
+
+}  // namespace rtuscope

@@ -1,0 +1,76 @@
+#include <fmt/format.h>
+
+#include "state/state_text.hpp"
+#include "util/text.hpp"
+#include "watch/watch.hpp"
+
+namespace rtuscope {
+
+void WatchSink::record(const Record& record) {
+    state_.add(record);
+    if (has_time(state_.last_time()) && (!has_time(now_) || state_.last_time() > now_)) {
+        now_ = state_.last_time();
+    }
+    display_.show(state_, now_);
+}
+
+void WatchSink::idle(Nanos now) {
+    if (has_time(now) && (!has_time(now_) || now > now_)) now_ = now;
+    display_.show(state_, now_);
+}
+
+void WatchSink::end(const Totals& /*totals*/, const std::vector<std::string>& /*remarks*/) {
+    state_.refresh();
+    display_.finish(state_, now_);
+}
+
+namespace {
+
+class PlainDisplay final : public Display {
+  public:
+    PlainDisplay(std::FILE* out, Nanos interval) : out_(out), interval_(interval) {}
+
+    void show(BusState& state, Nanos now) override {
+        if (!has_time(now)) return;
+        if (!has_time(next_)) {
+            next_ = now + interval_;
+            return;
+        }
+        if (now < next_) return;
+        print(state, now);
+        // After a long silence, the next table is an interval from now, not a burst.
+        next_ = now - next_ >= interval_ ? now + interval_ : next_ + interval_;
+    }
+
+    void finish(BusState& state, Nanos now) override { print(state, now); }
+
+  private:
+    void print(BusState& state, Nanos now) {
+        state.refresh();
+        StateView view;
+        view.now = now;
+        std::string text = "-- at ";
+        if (has_time(now)) {
+            append_seconds(text, now);
+        } else {
+            text += "the end (no timing)";
+        }
+        text += '\n';
+        text += state_text(state, view);
+        text += '\n';
+        std::fputs(text.c_str(), out_);
+        std::fflush(out_);
+    }
+
+    std::FILE* out_;
+    Nanos interval_;
+    Nanos next_ = kNoTime;
+};
+
+}  // namespace
+
+std::unique_ptr<Display> make_plain_display(std::FILE* out, Nanos interval) {
+    return std::make_unique<PlainDisplay>(out, interval);
+}
+
+}  // namespace rtuscope
