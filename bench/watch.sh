@@ -1,12 +1,16 @@
 #!/usr/bin/env bash
 # What `watch` costs on a line as busy as 115200 baud allows: its CPU time over the wall
 # time and its peak RSS while it shows the dashboard (in a terminal of tmux's) for
-# SECONDS, the bus simulated in a process of its own (rtuscope_bench_busy_bus), so that
-# only the sniffer is measured.
-#   bench/watch.sh BUILD_DIR [SECONDS]     (default 60; scripts/bench runs it)
+# SECONDS, the bus in a process of its own (rtuscope_bench_busy_bus), so that only the
+# sniffer is measured. The traffic is CAPTURE played onto the virtual line SPEED times as
+# fast as recorded (scripts/bench: rtuscope_bench_gen's at 115200 baud, 8 times: the
+# line some 80 % busy; the utilisation printed is what watch's own recording shows).
+#   bench/watch.sh BUILD_DIR CAPTURE [SECONDS [SPEED]]   (default 60 s, speed 8)
 set -euo pipefail
 dir=$1
-seconds=${2:-60}
+capture=$2
+seconds=${3:-60}
+speed=${4:-8}
 work=$(mktemp -d)
 socket="rtuscope-bench-$$"
 bus_pid=""
@@ -17,7 +21,7 @@ cleanup() {
 }
 trap cleanup EXIT
 
-"$dir/bench/rtuscope_bench_busy_bus" --baud 115200 >"$work/port" &
+"$dir/bench/rtuscope_bench_busy_bus" --baud 115200 --capture "$capture" --speed "$speed" >"$work/port" &
 bus_pid=$!
 for _ in $(seq 50); do [ -s "$work/port" ] && break; sleep 0.1; done
 port=$(head -1 "$work/port")
@@ -28,7 +32,9 @@ tmux -L "$socket" -f /dev/null new-session -d -x 120 -y 40 \
     "/usr/bin/time -f '%U %S %e %M' -o '$work/time' '$(realpath "$dir/rtuscope")' watch '$port' --baud 115200 --seconds $seconds -w '$work/bus.rtucap'; touch '$work/done'"
 for _ in $(seq $((seconds * 10 + 300))); do [ -e "$work/done" ] && break; sleep 0.1; done
 read -r user sys wall rss < "$work/time"
-frames=$("$dir/rtuscope" stats "$work/bus.rtucap" --jsonl | head -1 | grep -o '"frames":[0-9]*' | cut -d: -f2)
-awk -v u="$user" -v s="$sys" -v w="$wall" -v r="$rss" -v f="$frames" 'BEGIN {
-    printf "watch, 115200 baud, %.0f s: %d frames (%.0f/s), CPU %.2f %% of one core (user %.2f s, sys %.2f s), peak RSS %.1f MiB\n",
-        w, f, f / w, (u + s) / w * 100, u, s, r / 1024 }'
+bus=$("$dir/rtuscope" stats "$work/bus.rtucap" --jsonl 2>/dev/null | head -1)
+frames=$(grep -o '"frames":[0-9]*' <<< "$bus" | cut -d: -f2)
+busy=$(grep -o '"utilisation_pct":[0-9.]*' <<< "$bus" | cut -d: -f2)
+awk -v u="$user" -v s="$sys" -v w="$wall" -v r="$rss" -v f="$frames" -v b="$busy" 'BEGIN {
+    printf "watch, 115200 baud, %.0f s: %d frames (%.0f/s), line %.0f %% busy; CPU %.1f %% of one core (user %.2f s, sys %.2f s), peak RSS %.1f MiB\n",
+        w, f, f / w, b, (u + s) / w * 100, u, s, r / 1024 }'

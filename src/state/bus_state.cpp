@@ -121,7 +121,7 @@ FunctionStats BusState::figures(std::uint8_t slave) const {
     const auto& rows = stats_.functions();
     for (auto it = rows.lower_bound({slave, 0}); it != rows.end() && it->first.first == slave;
          ++it) {
-        merge_function_stats(sum, it->second);
+        add_function_counts(sum, it->second);
     }
     return sum;
 }

@@ -155,7 +155,7 @@ class BusState {
 
     void begin(const SessionInfo& session);
     void add(const Record& record);
-    // Brings the counters' percentiles up to date: before reading figures().
+    // Brings the percentiles of stats() up to date, before they are read.
     void refresh() { stats_.finish(); }
     // Forgets min/max, changes, counters and windows; values and names stay.
     void reset();
@@ -163,7 +163,8 @@ class BusState {
     [[nodiscard]] const SessionInfo& session() const { return stats_.session(); }
     // The counters `stats` prints, of the same records.
     [[nodiscard]] const BusStats& stats() const { return stats_; }
-    // One slave's counters: its rows in stats() summed (refresh() first).
+    // One slave's counters: its rows in stats() summed, their turnarounds left out (the
+    // slave's recent ones are in SlaveState, all of them in the rows).
     [[nodiscard]] FunctionStats figures(std::uint8_t slave) const;
     // Slaves seen, by address.
     [[nodiscard]] std::vector<const SlaveState*> slaves() const;

@@ -51,7 +51,8 @@ std::string right(const std::string& text, std::size_t width) {
 std::string register_line(const std::string& table, const std::string& address,
                           const std::string& name, const std::string& value,
                           const std::string& unit, const std::string& raw, const std::string& age,
-                          const std::string& written, const std::string& changes,
+                          const std::string& written, const std::string& changed,
+                          const std::string& changes,
                           const std::string& min,
                           const std::string& max, const std::string& history) {
     std::string shown = value;
@@ -59,7 +60,7 @@ std::string register_line(const std::string& table, const std::string& address,
     // Raw words last: the profile's value says the same, and a narrow screen cuts the right.
     std::string line = cell(table, 8) + ' ' + cell(address, 6) + ' ' + cell(name, 20) + ' ' +
                        right(shown, 12) + ' ' + cell(unit, 7) + ' ' + right(age, 6) + ' ' +
-                       right(written, 7) + ' ' + right(changes, 5) + ' ' + right(min, 9) + ' ' + right(max, 9) + ' ' +
+                       right(written, 7) + ' ' + right(changed, 7) + ' ' + right(changes, 4) + ' ' + right(min, 9) + ' ' + right(max, 9) + ' ' +
                        cell(history, ValueHistory::kSize) + ' ' + raw;
     while (!line.empty() && line.back() == ' ') line.pop_back();
     return line;
@@ -151,7 +152,7 @@ std::vector<StyledLine> register_table(const BusState& state, std::uint8_t slave
                                        const StateView& view) {
     std::vector<StyledLine> lines;
     lines.push_back({register_line("table", "addr", "name", "value", "unit", "raw", "age",
-                                   "written", "chg", "min", "max", "last values"),
+                                   "written", "changed", "n", "min", "max", "last values"),
                      LineStyle::heading});
     std::vector<const RegisterState*> registers = state.registers(slave);
     if (!view.register_filter.empty()) {
@@ -188,7 +189,8 @@ std::vector<StyledLine> register_table(const BusState& state, std::uint8_t slave
         std::string line = register_line(
             std::string(state.table_name(r->key.table)), fmt::format("0x{:04X}", r->key.address),
             std::string(state.text(r->name)), r->value, std::string(state.text(r->unit)), raw,
-            age_text(view.now, r->last_update), written, std::to_string(r->changes),
+            age_text(view.now, r->last_update), written,
+            r->changes > 0 ? age_text(view.now, r->last_change) : "", std::to_string(r->changes),
             r->numeric ? fmt::format("{:g}", r->min) : "",
             r->numeric ? fmt::format("{:g}", r->max) : "", sparkline(r->history));
         LineStyle style = LineStyle::plain;

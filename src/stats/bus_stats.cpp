@@ -6,7 +6,7 @@
 #include <string_view>
 
 namespace rtuscope {
-void merge_function_stats(FunctionStats& into, const FunctionStats& from) {
+void add_function_counts(FunctionStats& into, const FunctionStats& from) {
     into.requests += from.requests;
     into.answers += from.answers;
     into.exceptions += from.exceptions;
@@ -16,6 +16,10 @@ void merge_function_stats(FunctionStats& into, const FunctionStats& from) {
     into.no_answer += from.no_answer;
     into.broadcasts += from.broadcasts;
     into.unsolicited += from.unsolicited;
+}
+
+void merge_function_stats(FunctionStats& into, const FunctionStats& from) {
+    add_function_counts(into, from);
     into.turnarounds.merge(from.turnarounds);
 }
 

@@ -52,6 +52,8 @@ struct FunctionStats {
 
 // Adds `from`'s counts to `into`'s, turnarounds pooled (`from`'s finished first).
 void merge_function_stats(FunctionStats& into, const FunctionStats& from);
+// The same but for the turnarounds, left as they are: the counts alone cost no merge.
+void add_function_counts(FunctionStats& into, const FunctionStats& from);
 
 // A poll: requests with the same slave, function and first 4 data bytes (for reads the
 // start address and quantity). Its cycle is the time between two successive requests.

@@ -273,7 +273,6 @@ class Dashboard final : public Display {
         last_draw_ = steady_now();
         follow_resize();
         dirty_ = false;
-        state.refresh();
         view_.now = now;
         erase();
         if (help_) {
