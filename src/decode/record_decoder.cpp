@@ -48,7 +48,7 @@ void decode_record(Record& record, const ProtocolRules& rules, const Bus* bus) {
     if (frame.cls == RecordClass::noise || frame.bytes.size() < 2) return;
     const FunctionSpec& spec = rules.function(frame.slave(), frame.function());
     if (frame.bytes.size() < kMinAdu || record.notes.has(note_id::truncated) ||
-        record.notes.has(note_id::cut_by_stop)) {
+        record.notes.has(note_id::cut_by_stop) || record.notes.has(note_id::cut_by_snaplen)) {
         // No CRC at the end to strip: name the function, decode nothing.
         record.decoded.function = &spec;
         record.decoded.function_name = spec.name;

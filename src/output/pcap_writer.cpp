@@ -161,9 +161,10 @@ void PcapSink::write(const void* data, std::size_t size) {
 void PcapSink::begin(const SessionInfo& /*session*/) {}
 
 void PcapSink::record(const Record& record) {
-    // Frames only: noise is none, nor the part of one a stop cut off.
+    // Frames only: noise is none, nor the part of one a stop or a capture's snap length
+    // cut off.
     if (record.kind == Kind::noise || !record.frame.is_frame() ||
-        record.notes.has(note_id::cut_by_stop)) {
+        record.notes.has(note_id::cut_by_stop) || record.notes.has(note_id::cut_by_snaplen)) {
         return;
     }
     packet_.clear();
