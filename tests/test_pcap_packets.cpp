@@ -15,6 +15,7 @@
 #include "input/pcap.hpp"
 #include "input/sources.hpp"
 #include "pcap_builders.hpp"
+#include "output/sinks.hpp"
 #include "stats/report.hpp"
 #include "support.hpp"
 
@@ -834,18 +835,154 @@ TEST(PcapNotRtu, S7AndEtherNetIpAmongRtuOverTcpAreSkippedAndCounted) {
     EXPECT_NE(stats.find("10   10    0       0       0    0"), std::string::npos) << stats;
 }
 
-TEST(PcapNotRtu, ModbusTcpIsSkippedWithARemarkOfItsOwn) {
-    const Bytes request = {0x00, 0x07, 0x00, 0x00, 0x00, 0x06, 0x01, 0x03, 0x00, 0x00, 0x00, 0x02};
-    const Bytes answer = {0x00, 0x07, 0x00, 0x00, 0x00, 0x07, 0x01, 0x03, 0x04, 0x00, 0x01, 0x00, 0x02};
-    const Bytes two = concat({request, request});
-    const Decoded out = decode(pcap_file(1, {{kT0, eth_tcp(40000, 502, request, 1)},
-                                             {kT0 + kMs, eth_tcp(502, 40000, answer, 1)},
-                                             {kT0 + 2 * kMs, eth_tcp(40000, 502, two, 13)},
-                                             {kT0 + 3 * kMs, eth_tcp(40001, 502, kRequest, 1)}}));
-    ASSERT_EQ(out.records.size(), 1U);
-    EXPECT_EQ(out.records[0].frame.bytes, kRequest);
-    EXPECT_TRUE(has_remark(out.remarks, "skipped 3 of 4 packets: Modbus/TCP, not decoded"))
-        << all_of(out.remarks);
+// --- Modbus/TCP ------------------------------------------------------------------------------
+
+// An MBAP header (transaction id, protocol 0, length), the unit id and the PDU.
+Bytes mbap(std::uint16_t transaction, const Bytes& unit_and_pdu) {
+    Bytes adu = {static_cast<std::uint8_t>(transaction >> 8), static_cast<std::uint8_t>(transaction),
+                 0, 0, static_cast<std::uint8_t>(unit_and_pdu.size() >> 8),
+                 static_cast<std::uint8_t>(unit_and_pdu.size())};
+    adu.insert(adu.end(), unit_and_pdu.begin(), unit_and_pdu.end());
+    return adu;
+}
+
+// Modbus/TCP is decoded as RTU is, but for its CRC (none): unit id, function, data; each
+// answer paired with the request of its transaction id on its connection, however many
+// wait at once; the turnaround from packet to packet.
+TEST(PcapModbusTcp, FramesArePairedByTransactionId) {
+    const Bytes read = {0x11, 0x03, 0x00, 0x6B, 0x00, 0x02};
+    const Bytes read_answer = {0x11, 0x03, 0x04, 0x02, 0x2B, 0x00, 0x64};
+    const Bytes write = {0x11, 0x06, 0x00, 0x01, 0x00, 0x03};
+    const Bytes exception = {0x11, 0x86, 0x02};
+    // Two requests in one segment; their answers the other way round, the write's first.
+    const Decoded out = decode(pcap_file(
+        1, {{kT0, eth_tcp(40000, 502, concat({mbap(7, read), mbap(8, write)}), 1)},
+            {kT0 + 3 * kMs, eth_tcp(502, 40000, mbap(8, exception), 1)},
+            {kT0 + 5 * kMs, eth_tcp(502, 40000, mbap(7, read_answer), 10)},
+            // RTU over TCP on another connection stays as it is.
+            {kT0 + 6 * kMs, eth_tcp(40001, 502, kRequest, 1)},
+            {kT0 + 9 * kMs, eth_tcp(502, 40001, kAnswer, 1)}}));
+    ASSERT_FALSE(out.error);
+    ASSERT_EQ(out.records.size(), 6U);
+    const Record& r1 = out.records[0];
+    const Record& w1 = out.records[1];
+    const Record& w2 = out.records[2];
+    const Record& r2 = out.records[3];
+    EXPECT_EQ(r1.frame.transport, Transport::tcp);
+    EXPECT_EQ(r1.frame.mbap.transaction, 7U);
+    EXPECT_EQ(r1.frame.bytes, read);
+    EXPECT_EQ(r1.frame.slave(), 0x11);
+    EXPECT_EQ(r1.frame.crc.status, CrcStatus::none);
+    EXPECT_EQ(r1.kind, Kind::request);
+    EXPECT_EQ(r1.decoded.summary, "0x006B x2");
+    EXPECT_EQ(w1.kind, Kind::request);
+    EXPECT_EQ(w1.frame.mbap.transaction, 8U);
+    EXPECT_EQ(w2.kind, Kind::exception);
+    EXPECT_EQ(w2.request_number, w1.number);
+    EXPECT_EQ(w2.latency, 3 * kMs);
+    EXPECT_EQ(r2.kind, Kind::response);
+    EXPECT_EQ(r2.request_number, r1.number);
+    EXPECT_EQ(r2.latency, 5 * kMs);
+    EXPECT_EQ(r2.decoded.summary, "2 registers: 0x022B 0x0064");
+    EXPECT_TRUE(r2.notes.empty());
+    EXPECT_EQ(out.records[4].frame.transport, Transport::rtu);
+    EXPECT_EQ(out.records[4].frame.bytes, kRequest);
+    EXPECT_EQ(out.records[5].request_number, out.records[4].number);
+    EXPECT_EQ(out.totals.requests, 3U);
+    EXPECT_EQ(out.totals.responses, 2U);
+    EXPECT_EQ(out.totals.exceptions, 1U);
+    EXPECT_EQ(out.totals.invalid, 0U);
+    EXPECT_EQ(out.totals.crc_bad, 0U);
+    EXPECT_EQ(out.totals.unanswered, 0U);
+    EXPECT_TRUE(out.remarks.empty()) << all_of(out.remarks);
+}
+
+// An ADU split over two segments is one frame; a request whose answer never comes is
+// unanswered; an answer on another connection or with another transaction id is none.
+TEST(PcapModbusTcp, SplitAdusAndUnansweredRequests) {
+    const Bytes read = mbap(1, {0x01, 0x04, 0x00, 0x00, 0x00, 0x01});
+    const Bytes answer = mbap(1, {0x01, 0x04, 0x02, 0x00, 0x2A});
+    const Decoded out = decode(pcap_file(
+        1, {{kT0, eth_tcp(40000, 502, first(read, 5), 1)},
+            {kT0 + kMs, eth_tcp(40000, 502, from(read, 5), 6)},
+            {kT0 + 2 * kMs, eth_tcp(502, 40001, answer, 1)},  // another connection
+            {kT0 + 3 * kMs, eth_tcp(40000, 502, mbap(2, {0x01, 0x04, 0x00, 0x00, 0x00, 0x01}), 13)},
+            {kT0 + 4 * kMs, eth_tcp(502, 40000, answer, 1)}}));
+    ASSERT_EQ(out.records.size(), 4U);
+    EXPECT_EQ(out.records[0].frame.bytes, from(read, 6));
+    EXPECT_EQ(out.records[0].kind, Kind::request);
+    EXPECT_EQ(out.records[1].kind, Kind::response);
+    EXPECT_EQ(out.records[1].request_number, 0U);
+    EXPECT_TRUE(out.records[1].notes.has("txn.unsolicited"));
+    EXPECT_EQ(out.records[3].request_number, 1U);
+    EXPECT_TRUE(out.records[2].notes.has("txn.no_answer"));
+    EXPECT_EQ(out.totals.unanswered, 1U);
+}
+
+// A request waits for its answer up to the timeout, and until its transaction id comes
+// again on its connection.
+TEST(PcapModbusTcp, RequestsAreGivenUpOn) {
+    const Bytes read = {0x01, 0x03, 0x00, 0x00, 0x00, 0x01};
+    const Bytes answer = {0x01, 0x03, 0x02, 0x00, 0x05};
+    const Decoded out = decode(pcap_file(
+        1, {{kT0, eth_tcp(40000, 502, mbap(1, read), 1)},
+            {kT0 + 1500 * kMs, eth_tcp(502, 40000, mbap(1, answer), 1)},  // past 1 s
+            {kT0 + 2000 * kMs, eth_tcp(40000, 502, mbap(2, read), 13)},
+            {kT0 + 2100 * kMs, eth_tcp(40000, 502, mbap(2, read), 25)},  // tid 2 again
+            {kT0 + 2200 * kMs, eth_tcp(502, 40000, mbap(2, answer), 12)}}));
+    ASSERT_EQ(out.records.size(), 5U);
+    EXPECT_TRUE(out.records[0].notes.has("txn.no_answer"));
+    EXPECT_TRUE(out.records[1].notes.has("txn.unsolicited"));
+    EXPECT_TRUE(out.records[2].notes.has("txn.no_answer"));
+    EXPECT_EQ(out.records[4].request_number, 4U);
+    EXPECT_EQ(out.totals.unanswered, 2U);
+    EXPECT_EQ(out.totals.unsolicited, 1U);
+}
+
+// Without port 502 (a server elsewhere) the transaction id says which is the answer: the
+// first frame of a transaction is its request.
+TEST(PcapModbusTcp, WithoutPort502TheTransactionIdSaysWhichIsTheAnswer) {
+    const Decoded out = decode(pcap_file(
+        1, {{kT0, ethernet(0x0800, ipv4(6, tcp(40000, 5020, mbap(3, {0x05, 0x03, 0x00, 0x00, 0x00, 0x01}))))},
+            {kT0 + kMs, ethernet(0x0800, ipv4(6, tcp(5020, 40000, mbap(3, {0x05, 0x03, 0x02, 0x00, 0x09})), true))}}));
+    ASSERT_EQ(out.records.size(), 2U);
+    EXPECT_EQ(out.records[0].kind, Kind::request);
+    EXPECT_EQ(out.records[1].kind, Kind::response);
+    EXPECT_EQ(out.records[1].request_number, 1U);
+    EXPECT_EQ(out.records[1].decoded.summary, "1 register: 0x0009");
+}
+
+// In the outputs: JSON Lines says how a frame travelled and its transaction id; the text
+// shows the transaction id; CSV's slave is the unit id, its crc empty.
+TEST(PcapModbusTcp, Outputs) {
+    const std::string file = pcap_file(
+        1, {{kT0, eth_tcp(40000, 502, mbap(0x1234, {0x09, 0x03, 0x00, 0x00, 0x00, 0x01}), 1)},
+            {kT0 + 2 * kMs, eth_tcp(502, 40000, mbap(0x1234, {0x09, 0x03, 0x02, 0x00, 0x07}), 1)}});
+    const auto run = [&](auto make_sink) {
+        auto source = source_from_memory(file, "mem.pcap", InputFormat::automatic);
+        EXPECT_TRUE(source.ok());
+        std::FILE* out = std::tmpfile();
+        auto sink = make_sink(out);
+        EXPECT_TRUE(run_pipeline(**source, {}, *sink).ok());
+        sink.reset();
+        std::rewind(out);
+        std::string text;
+        char buffer[4096];
+        for (std::size_t n; (n = std::fread(buffer, 1, sizeof buffer, out)) > 0;) text.append(buffer, n);
+        std::fclose(out);
+        return text;
+    };
+    const std::string jsonl = run([](std::FILE* f) { return make_jsonl_sink(f); });
+    EXPECT_NE(jsonl.find(R"("slave":9,"function":3,"kind":"request","crc":"",)"), std::string::npos)
+        << jsonl;
+    EXPECT_NE(jsonl.find(R"("hex":"090300000001",)"), std::string::npos) << jsonl;
+    EXPECT_NE(jsonl.find(R"("transport":"tcp","transaction":4660})"), std::string::npos) << jsonl;
+    const std::string csv = run([](std::FILE* f) { return make_csv_sink(f); });
+    EXPECT_NE(csv.find(",9,3,response,,1,2.000,Read Holding Registers 1 register: 0x0007,0903020007,,"), std::string::npos)
+        << csv;
+    const std::string stats = run([](std::FILE* f) { return make_stats_sink(f, StatsFormat::text); });
+    EXPECT_NE(stats.find("0 invalid"), std::string::npos) << stats;
+    EXPECT_EQ(stats.find("crc error"), std::string::npos) << stats;
 }
 
 // 01 03 00 00 00 02 C4 0B reads as an MBAP header too (protocol 0, length 2): the CRC
@@ -891,12 +1028,12 @@ TEST(PcapNotRtu, UdpDatagrams) {
             {kT0 + kMs, ethernet(0x0800, ipv4(17, udp(40000, 502, bad_crc(kRequest))))},
             {kT0 + 2 * kMs, ethernet(0x0800, ipv4(17, udp(40002, 502, mbap)))},
             {kT0 + 3 * kMs, ethernet(0x0800, ipv4(17, udp(40003, 123, Bytes(48, 0x23))))}}));
-    ASSERT_EQ(out.records.size(), 3U);
+    ASSERT_EQ(out.records.size(), 4U);
     EXPECT_EQ(out.records[0].frame.bytes, kRequest);
     EXPECT_EQ(out.records[1].frame.bytes, kRequest2);
     EXPECT_EQ(out.records[2].frame.crc.status, CrcStatus::bad);
-    EXPECT_TRUE(has_remark(out.remarks, "skipped 1 of 4 packets: Modbus/TCP, not decoded"))
-        << all_of(out.remarks);
+    EXPECT_EQ(out.records[3].frame.transport, Transport::tcp);  // Modbus/UDP
+    EXPECT_EQ(out.records[3].frame.bytes, from(mbap, 6));
     EXPECT_TRUE(has_remark(out.remarks,
                            "skipped 1 of 4 packets: TCP and UDP payloads that are neither Modbus "
                            "RTU nor Modbus/TCP (port 123)"))

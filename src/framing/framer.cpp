@@ -169,6 +169,10 @@ void Framer::push(const Chunk& chunk) {
     if (chunk.bytes.empty()) return;
     // The stream so far cannot go on into a frame that stands on its own, or into a packet.
     if ((chunk.whole_frame || chunk.packet) && pos_ < bytes_.size()) decide(true);
+    if (chunk.transport == Transport::tcp) {
+        emit_modbus_tcp(chunk);
+        return;
+    }
     if (chunk.whole_frame) {
         emit_chunk_as_frame(chunk);
         return;
@@ -830,6 +834,34 @@ void Framer::emit_chunk_as_frame(const Chunk& chunk) {
         frame.notes.add(note_id::malformed, "length does not fit its function code");
     }
     emit_(frame);
+}
+
+void Framer::emit_modbus_tcp(const Chunk& chunk) {
+    Frame& frame = frame_;
+    frame.notes.clear();
+    frame.bytes = chunk.bytes;
+    frame.transport = Transport::tcp;
+    frame.mbap = chunk.mbap;
+    // A packet's time, no line time: the turnaround is from packet to packet, as
+    // Wireshark's. Nor does it end a silence on any serial line.
+    frame.start = chunk.time;
+    frame.end = chunk.time;
+    frame.silence_before = kNoTime;
+    frame.channel = chunk.channel;
+    frame.source_line = chunk.source_line;
+    frame.delimiter = Delimiter::line;
+    frame.crc = {};  // none: TCP checks its segments
+    frame.cls = frame.bytes.size() >= 2 ? RecordClass::frame : RecordClass::invalid;
+    // The port says which way it went; without one, the pairing decides by transaction id.
+    frame.reading = Reading::unknown;
+    if (frame.bytes.size() >= 2 && !chunk.channel.empty() && !options_.request_channel.empty()) {
+        frame.reading = chunk.channel == options_.request_channel
+                            ? Reading::request
+                            : reading_for(Role::response, frame.bytes[1]);
+    }
+    emit_(frame);
+    frame.transport = Transport::rtu;
+    frame.mbap = {};
 }
 
 void Framer::emit(std::size_t at, std::size_t length, RecordClass cls, Reading reading,

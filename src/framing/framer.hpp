@@ -123,6 +123,8 @@ class Framer {
     // The `n` bytes at `at` that end a packet the capture cut, forming no frame.
     void emit_cut_by_capture(std::size_t at, std::size_t n);
     void emit_chunk_as_frame(const Chunk& chunk);
+    // A Modbus/TCP ADU (Chunk::transport): a frame without CRC or line timing.
+    void emit_modbus_tcp(const Chunk& chunk);
     // `crc`: the check the caller made (none for noise and for frames cut short);
     // `note`: the caller's, if any, after the CRC's.
     void emit(std::size_t at, std::size_t length, RecordClass cls, Reading reading,

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "framing/line_settings.hpp"
+#include "framing/transport.hpp"
 #include "util/result.hpp"
 #include "util/time.hpp"
 
@@ -47,6 +48,9 @@ struct Chunk {
     // cut it). Bytes at its end that form no whole frame were cut by the capture, not on
     // the line.
     std::uint32_t bytes_not_captured = 0;
+    // Whole frames: Modbus/TCP (bytes: the unit id and the PDU) or RTU.
+    Transport transport = Transport::rtu;
+    Mbap mbap{};  // Modbus/TCP only
 };
 
 // What a source knows about itself once its header (if any) has been read.

@@ -6,7 +6,9 @@
 // RTU does so for good: a frame with a bad CRC in it is a bad frame, not another protocol.
 // A flow found to carry something else becomes RTU only on stronger evidence (a payload
 // made of whole frames of lengths their function codes give, CRCs right), since one
-// payload in 65,536 of any protocol passes a CRC by chance.
+// payload in 65,536 of any protocol passes a CRC by chance; it becomes Modbus/TCP on a
+// payload of whole ADUs (a capture that began inside one). A flow of Modbus/TCP stays so:
+// bytes in it that are no ADU are skipped.
 #include "input/ip_flows.hpp"
 
 #include <fmt/format.h>
@@ -335,8 +337,7 @@ void IpFlows::take(Flow& flow, Bytes bytes, Nanos time, std::uint32_t not_captur
 
 void IpFlows::skip_packets(const Flow& flow, std::size_t from_mark, std::size_t to_mark) {
     if (to_mark <= from_mark) return;
-    out_.skipped(flow.protocol == Protocol::modbus_tcp ? Skip::modbus_tcp : Skip::not_modbus,
-                 flow.key, to_mark - from_mark);
+    out_.skipped(Skip::not_modbus, flow.key, to_mark - from_mark);
 }
 
 void IpFlows::hand_on(Flow& flow, bool flush, std::uint32_t not_captured) {
@@ -362,6 +363,25 @@ void IpFlows::hand_on(Flow& flow, bool flush, std::uint32_t not_captured) {
 
     std::size_t at = 0;
     while (at < all.size()) {
+        if (flow.protocol == Protocol::modbus_tcp) {
+            // ADUs one after another; one whose rest has not come waits for it.
+            const Bytes rest = all.subspan(at);
+            const std::size_t adu = mbap_adu_length(rest);
+            if (adu != 0 && adu <= rest.size()) {
+                const Mark& mark = marks[mark_of(at)];
+                out_.modbus_tcp(rest.first(adu), mark.time, mark.estimated || mark.at != at,
+                                flow.channel, flow.key);
+                at += adu;
+                continue;
+            }
+            const bool header_incomplete = adu == 0 && rest.size() <= kMbapHeaderBytes;
+            if (!flush && (adu > rest.size() || header_incomplete)) break;
+            // No ADU starts here (or the stream ends inside one): the segment's rest goes.
+            const std::size_t next = next_mark_after(at);
+            skip_packets(flow, mark_of(at), mark_of(at) + 1);
+            at = next;
+            continue;
+        }
         if (flow.protocol != Protocol::rtu) {
             // `at` begins a segment: what it holds, from here on, says what the flow carries.
             const Bytes rest = all.subspan(at);
@@ -373,9 +393,7 @@ void IpFlows::hand_on(Flow& flow, bool flush, std::uint32_t not_captured) {
             }
             if (is_modbus_tcp(rest)) {
                 flow.protocol = Protocol::modbus_tcp;
-                skip_packets(flow, mark_of(at), marks.size());
-                at = all.size();
-                break;
+                continue;
             }
             const std::size_t adu = mbap_adu_length(rest);
             if (first && !flush && (rtu.incomplete || adu > rest.size()) &&

@@ -1,8 +1,9 @@
 // Internal to the pcap reader: the TCP and UDP flows of a capture. TCP streams are put
 // back in order by sequence number (retransmitted bytes taken once, segments that came
 // early held until the gap fills), so that an RTU frame sent over two segments is one
-// frame. Each flow's payloads are told apart by their bytes, never by the port: Modbus RTU
-// (frames whose CRC checks), Modbus/TCP (mbap.hpp), or neither (S7comm, EtherNet/IP, ...).
+// frame, and so is a Modbus/TCP ADU. Each flow's payloads are told apart by their bytes,
+// never by the port: Modbus RTU (frames whose CRC checks), Modbus/TCP (mbap.hpp), or
+// neither (S7comm, EtherNet/IP, ...).
 // Memory is bounded: so many flows at once, so many bytes held a stream and in all.
 #pragma once
 
@@ -52,7 +53,6 @@ class IpFlows {
   public:
     enum class Skip : std::uint8_t {
         retransmission,  // a TCP segment whose bytes were all read before
-        modbus_tcp,      // Modbus/TCP: not decoded
         not_modbus,      // neither Modbus RTU nor Modbus/TCP
     };
     // Where the flows' Modbus RTU bytes and their skipped packets go.
@@ -66,6 +66,9 @@ class IpFlows {
         // `not_captured`: the capture cut that many bytes after them.
         virtual void rtu(std::span<const std::uint8_t> bytes, Nanos time, bool time_estimated,
                          std::string_view channel, std::uint32_t not_captured) = 0;
+        // One Modbus/TCP ADU (MBAP header, unit id, PDU) of a flow that carries them.
+        virtual void modbus_tcp(std::span<const std::uint8_t> adu, Nanos time, bool time_estimated,
+                                std::string_view channel, const FlowKey& flow) = 0;
         virtual void skipped(Skip why, const FlowKey& flow, std::uint64_t packets) = 0;
     };
 

@@ -1,7 +1,7 @@
 // Modbus/TCP recognition: the MBAP header (Modbus Messaging on TCP/IP Implementation
-// Guide V1.0b, section 3.1.3) in front of a PDU. rtuscope decodes Modbus RTU; the pcap
-// reader tells Modbus/TCP payloads apart by this header so that they are counted, not
-// taken for RTU frames with bad CRCs.
+// Guide V1.0b, section 3.1.3) in front of a PDU. The pcap reader tells Modbus/TCP
+// payloads from Modbus RTU and from other protocols by this header, and cuts a stream of
+// them into ADUs.
 #pragma once
 
 #include <cstddef>

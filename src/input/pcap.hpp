@@ -1,6 +1,7 @@
-// pcap in: pcap and pcapng files whose packets hold Modbus RTU: exported PDUs (link type
-// 252, as `--pcap` writes them: output/pcap_writer.hpp), RTAC serial (250), DLT_USER0-15
-// (147-162), and Modbus RTU over TCP or UDP in Ethernet, Linux cooked or raw IP captures.
+// pcap in: pcap and pcapng files whose packets hold Modbus RTU or Modbus/TCP: exported
+// PDUs (link type 252, as `--pcap` writes them: output/pcap_writer.hpp), RTAC serial (250),
+// DLT_USER0-15 (147-162), and Modbus RTU or Modbus/TCP over TCP or UDP in Ethernet, Linux
+// cooked or raw IP captures.
 // libpcap reads them, rtuscope's own pcapng reader the pcapng files libpcap refuses (with
 // interfaces of several link types). The link types and ports below are shared with the
 // writer.
@@ -31,14 +32,16 @@ inline constexpr std::uint16_t kMasterPort = 49152;
 // A source over a pcap or pcapng file. A packet that is exactly one Modbus RTU frame by
 // length and CRC (and every exported PDU) becomes a whole-frame Chunk
 // (Chunk::whole_frame), any other a packet Chunk (Chunk::packet) the framer cuts into
-// frames; TCP streams are reassembled first, so a frame sent in two segments comes whole.
+// frames; a Modbus/TCP ADU is a whole-frame chunk of Transport::tcp (its unit id and PDU,
+// its transaction id and connection in Chunk::mbap). TCP streams are reassembled first,
+// so a frame or an ADU sent in two segments comes whole.
 // A chunk's time is its packet's timestamp, its first byte's start (chunk_time_is_start);
 // its channel "master" when the packet went to port 502, "slave" when it came from port
-// 502, empty otherwise. Packets that carry no Modbus RTU (other protocols, Modbus/TCP,
-// empty TCP segments, retransmissions, exported PDUs for other dissectors, interfaces of
-// other link types) are skipped and counted in remarks(), and so are packets the capture's
-// snap length cut. A file cut short or corrupt gives its packets up to the bad one, then
-// an error naming the packet.
+// 502, empty otherwise. Packets that carry no Modbus (other protocols, empty TCP
+// segments, retransmissions, exported PDUs for other dissectors, interfaces of other link
+// types) are skipped and counted in remarks(), and so are packets the capture's snap
+// length cut. A file cut short or corrupt gives its packets up to the bad one, then an
+// error naming the packet.
 Result<std::unique_ptr<ChunkSource>> open_pcap_source(const std::string& path);
 
 // The same over a file in memory; `name` is used in messages.

@@ -8,6 +8,7 @@
 #include <utility>
 
 #include "framing/frame.hpp"
+#include "input/mbap.hpp"
 #include "input/pcap.hpp"
 #include "input/readers.hpp"
 
@@ -67,6 +68,7 @@ struct Extracted {
     Nanos duration = kNoTime;  // the frame's time on the line, when the packet says
     bool time_estimated = false;
     bool framed = false;         // an exported PDU: one frame, as a dissector cut it
+    bool modbus_tcp = false;     // an exported PDU for mbtcp: one Modbus/TCP ADU
     std::uint8_t transport = 0;  // kTcp, kUdp, or 0: the bytes are serial data
     FlowKey flow;
     TcpSegment tcp;
@@ -207,9 +209,13 @@ Result<Extracted> exported_pdu_payload(Bytes p, std::uint64_t number) {
             }
         }
     }
-    // "mbrtu" (over TCP) and "mbrtu_udp" hold whole RTU frames. "modbus" and "mbtcp"
-    // hold PDUs without address and CRC, which are not RTU frames.
-    if (!name.starts_with("mbrtu")) {
+    // "mbrtu" (over TCP) and "mbrtu_udp" hold whole RTU frames, "mbtcp" a Modbus/TCP ADU.
+    // "modbus" holds a PDU alone: no unit, no transaction.
+    const bool modbus_tcp = name == "mbtcp";
+    if (modbus_tcp && mbap_adu_length(p.subspan(at)) != p.size() - at) {
+        return skip("exported Modbus/TCP PDUs that are no ADU");
+    }
+    if (!name.starts_with("mbrtu") && !modbus_tcp) {
         return skip(
             fmt::format("exported PDUs for another dissector ({})", detail::quote_token(name)));
     }
@@ -220,6 +226,9 @@ Result<Extracted> exported_pdu_payload(Bytes p, std::uint64_t number) {
     e.duration = duration;
     e.time_estimated = estimated;
     e.framed = true;
+    e.modbus_tcp = modbus_tcp;
+    e.flow.source_port = static_cast<std::uint16_t>(src);
+    e.flow.destination_port = static_cast<std::uint16_t>(dst);
     return e;
 }
 
@@ -333,6 +342,10 @@ Status PacketChunker::add(const Packet& packet, std::uint64_t number) {
         flows_.udp(e.flow, e.bytes, not_captured, packet.time, e.channel);
         return ok_status();
     }
+    if (e.modbus_tcp) {
+        if (not_captured == 0) modbus_tcp(e.bytes, packet.time, e.time_estimated, e.channel, e.flow);
+        return ok_status();
+    }
     emit(e.bytes, packet.time, e.time_estimated, e.channel, not_captured, e.framed, e.duration);
     return ok_status();
 }
@@ -352,9 +365,6 @@ void PacketChunker::skipped(IpFlows::Skip why, const FlowKey& flow, std::uint64_
         case IpFlows::Skip::retransmission:
             retransmissions_ += packets;
             return;
-        case IpFlows::Skip::modbus_tcp:
-            modbus_tcp_ += packets;
-            return;
         case IpFlows::Skip::not_modbus: {
             not_modbus_ += packets;
             // Where a server listens: the lower port, as a rule.
@@ -367,9 +377,7 @@ void PacketChunker::skipped(IpFlows::Skip why, const FlowKey& flow, std::uint64_
     }
 }
 
-void PacketChunker::emit(Bytes bytes, Nanos time, bool time_estimated, std::string_view channel,
-                         std::uint32_t not_captured, bool framed, Nanos duration) {
-    if (bytes.empty()) return;
+Chunk& PacketChunker::next_chunk(Nanos& time, bool& time_estimated, std::string_view channel) {
     // Bytes held for the rest of a frame come out after other flows' later packets: they
     // follow those, estimated, so that the input's time never seems to go back.
     if (has_time(time) && has_time(last_emitted_) && time < last_emitted_ &&
@@ -377,13 +385,42 @@ void PacketChunker::emit(Bytes bytes, Nanos time, bool time_estimated, std::stri
         time = last_emitted_;
         time_estimated = true;
     }
+    if (has_time(time)) last_emitted_ = time;
     if (size_ == queue_.size()) queue_.emplace_back();
     Chunk& out = queue_[size_++];
     out.time = time;
+    out.time_estimated = time_estimated;
     if (out.channel != channel) out.channel = channel;
-    out.bytes.assign(bytes.begin(), bytes.end());
     out.source_line = 0;
     out.char_errors.clear();
+    out.bytes_not_captured = 0;
+    out.duration = kNoTime;
+    out.transport = Transport::rtu;
+    out.mbap = {};
+    return out;
+}
+
+void PacketChunker::modbus_tcp(Bytes adu, Nanos time, bool time_estimated,
+                               std::string_view channel, const FlowKey& flow) {
+    Chunk& out = next_chunk(time, time_estimated, channel);
+    // The frame: the unit id and the PDU; the header's transaction id and the connection
+    // (its flows either way, the same number) beside it.
+    out.bytes.assign(adu.begin() + kMbapHeaderBytes - 1, adu.end());
+    out.whole_frame = true;
+    out.packet = false;
+    out.transport = Transport::tcp;
+    out.mbap.transaction = be16(adu, 0);
+    const FlowKey reversed = flow.reversed();
+    const FlowKeyHash hash;
+    out.mbap.connection =
+        static_cast<std::uint32_t>(hash(flow) ^ hash(reversed)) | 1U;  // never 0
+}
+
+void PacketChunker::emit(Bytes bytes, Nanos time, bool time_estimated, std::string_view channel,
+                         std::uint32_t not_captured, bool framed, Nanos duration) {
+    if (bytes.empty()) return;
+    Chunk& out = next_chunk(time, time_estimated, channel);
+    out.bytes.assign(bytes.begin(), bytes.end());
     // An exported PDU is a frame as a dissector cut it; another packet is one frame when
     // its length and CRC say so, else bytes for the framer to cut.
     out.whole_frame =
@@ -392,8 +429,6 @@ void PacketChunker::emit(Bytes bytes, Nanos time, bool time_estimated, std::stri
     out.packet = !out.whole_frame;
     out.bytes_not_captured = not_captured;
     out.duration = out.whole_frame ? duration : kNoTime;
-    out.time_estimated = time_estimated;
-    if (has_time(time)) last_emitted_ = time;
 }
 
 bool PacketChunker::pop(Chunk& out) {
@@ -429,10 +464,6 @@ std::vector<std::string> PacketChunker::remarks(bool cut_off) const {
         out.push_back(fmt::format(
             "skipped {} of {} packets: TCP retransmissions (their bytes read once)",
             retransmissions_, packets_));
-    }
-    if (modbus_tcp_ != 0) {
-        out.push_back(fmt::format("skipped {} of {} packets: Modbus/TCP, not decoded",
-                                  modbus_tcp_, packets_));
     }
     if (not_modbus_ != 0) {
         // The busiest ports first, a few of them.

@@ -41,14 +41,15 @@ class PacketReader {
     [[nodiscard]] virtual bool cut_off() const = 0;
 };
 
-// Whether packets of this link type can carry Modbus RTU (the table in docs/formats.md).
+// Whether packets of this link type can carry Modbus (the table in docs/formats.md).
 bool supported_link_type(int link_type);
 
 // Turns packets into chunks: a packet that is exactly one frame by length and CRC (and
 // every exported PDU, which a dissector framed) becomes a whole-frame chunk, any other a
-// packet chunk for the framer to cut; TCP streams are reassembled first, and payloads
-// that are not Modbus RTU are skipped and counted (ip_flows.hpp). A packet gives none,
-// one or several chunks, taken with pop().
+// packet chunk for the framer to cut, a Modbus/TCP ADU a whole-frame chunk of
+// Transport::tcp; TCP streams are reassembled first, and payloads that are neither Modbus
+// RTU nor Modbus/TCP are skipped and counted (ip_flows.hpp). A packet gives none, one or
+// several chunks, taken with pop().
 class PacketChunker final : private IpFlows::Output {
   public:
     PacketChunker();
@@ -70,11 +71,15 @@ class PacketChunker final : private IpFlows::Output {
   private:
     void rtu(Bytes bytes, Nanos time, bool time_estimated, std::string_view channel,
              std::uint32_t not_captured) override;
+    void modbus_tcp(Bytes adu, Nanos time, bool time_estimated, std::string_view channel,
+                    const FlowKey& flow) override;
     void skipped(IpFlows::Skip why, const FlowKey& flow, std::uint64_t packets) override;
     // One chunk of `bytes`: a whole frame when they are one (or `framed`: an exported PDU)
     // and complete, else a packet.
     void emit(Bytes bytes, Nanos time, bool time_estimated, std::string_view channel,
               std::uint32_t not_captured, bool framed, Nanos duration);
+    // The next chunk's slot, filled by the caller.
+    Chunk& next_chunk(Nanos& time, bool& time_estimated, std::string_view channel);
     void skip(const std::string& why);
 
     IpFlows flows_;
@@ -92,7 +97,6 @@ class PacketChunker final : private IpFlows::Output {
     std::map<std::string, std::uint64_t> skipped_;
     std::uint64_t skipped_otherwise_ = 0;  // for reasons beyond kMaxSkipReasons
     std::uint64_t retransmissions_ = 0;
-    std::uint64_t modbus_tcp_ = 0;
     std::uint64_t not_modbus_ = 0;
     // The packets not Modbus by their flow's lower port (where a server listens), for the
     // remark; ports beyond kMaxPortsCounted are counted in not_modbus_ only.
