@@ -1040,6 +1040,89 @@ TEST(PcapNotRtu, UdpDatagrams) {
         << all_of(out.remarks);
 }
 
+std::vector<std::string> split(const std::string& text, char separator) {
+    std::vector<std::string> out;
+    std::size_t at = 0;
+    for (;;) {
+        const std::size_t next = text.find(separator, at);
+        out.push_back(text.substr(at, next - at));
+        if (next == std::string::npos) return out;
+        at = next + 1;
+    }
+}
+
+// Wireshark's Modbus/TCP dissector and rtuscope read captures/pcaps/modbus_tcp.pcap alike:
+// the same ADUs, transaction ids, unit ids, function codes and exception codes, and each
+// answer Wireshark pairs is paired with the same request.
+TEST(PcapModbusTcp, TsharkAgreesOnFramesFunctionsAndPairs) {
+    ASSERT_EQ(std::system("which tshark >/dev/null 2>&1"), 0)
+        << "tshark is missing: install it (Debian: apt-get install tshark) to check the "
+           "Modbus/TCP decoding against Wireshark's";
+    const std::string path = RTUSCOPE_SOURCE_DIR "/captures/pcaps/modbus_tcp.pcap";
+    std::string out;
+    std::FILE* pipe = popen(("tshark -r '" + path +
+                             "' -Y mbtcp -T fields -E separator=/t -e frame.number -e "
+                             "mbtcp.trans_id -e mbtcp.unit_id -e modbus.func_code -e "
+                             "modbus.exception_code -e modbus.request_frame 2>/dev/null")
+                                .c_str(),
+                            "r");
+    ASSERT_NE(pipe, nullptr);
+    char buffer[4096];
+    for (std::size_t n; (n = std::fread(buffer, 1, sizeof buffer, pipe)) > 0;) out.append(buffer, n);
+    pclose(pipe);
+    // One row a packet; a packet of two ADUs lists each field twice, comma-separated.
+    struct Adu {
+        std::string packet, transaction, unit, function, exception, request_packet;
+    };
+    std::vector<Adu> adus;
+    for (const std::string& row : split(out, '\n')) {
+        if (row.empty()) continue;
+        const std::vector<std::string> f = split(row, '\t');
+        ASSERT_EQ(f.size(), 6U) << row;
+        const std::vector<std::string> transactions = split(f[1], ',');
+        const std::vector<std::string> units = split(f[2], ',');
+        const std::vector<std::string> functions = split(f[3], ',');
+        ASSERT_EQ(units.size(), transactions.size()) << row;
+        ASSERT_EQ(functions.size(), transactions.size()) << row;
+        for (std::size_t i = 0; i < transactions.size(); ++i) {
+            // Wireshark keeps one request a packet: it pairs the answers of a packet of
+            // two requests only with its last.
+            const bool one = transactions.size() == 1;
+            adus.push_back({f[0], transactions[i], units[i], functions[i], one ? f[4] : "",
+                            one ? f[5] : ""});
+        }
+    }
+    auto source = open_source(path, InputFormat::automatic);
+    ASSERT_TRUE(source.ok()) << source.error().to_string();
+    CollectingSink collect;
+    ASSERT_TRUE(run_pipeline(**source, {}, collect).ok());
+    const std::vector<Record>& records = collect.records;
+    ASSERT_EQ(records.size(), adus.size()) << out;
+    std::size_t pairs = 0;
+    for (std::size_t i = 0; i < records.size(); ++i) {
+        SCOPED_TRACE("ADU " + std::to_string(i + 1) + " in packet " + adus[i].packet);
+        const Record& r = records[i];
+        EXPECT_EQ(r.frame.transport, Transport::tcp);
+        EXPECT_EQ(std::to_string(r.frame.mbap.transaction), adus[i].transaction);
+        EXPECT_EQ(std::to_string(r.frame.slave()), adus[i].unit);
+        EXPECT_EQ(std::to_string(r.frame.function() & 0x7FU), adus[i].function);
+        if (r.kind == Kind::exception) {
+            EXPECT_EQ(std::to_string(r.decoded.exception_code), adus[i].exception);
+        } else {
+            EXPECT_EQ(adus[i].exception, "");
+        }
+        if (!adus[i].request_packet.empty()) {
+            ASSERT_NE(r.request_number, 0U);
+            EXPECT_EQ(adus[r.request_number - 1].packet, adus[i].request_packet);
+            ++pairs;
+        }
+        if (r.request_number == 0) {
+            EXPECT_EQ(adus[i].request_packet, "");
+        }
+    }
+    EXPECT_EQ(pairs, 4U);
+}
+
 TEST(Mbap, Recognition) {
     const Bytes adu = {0x12, 0x34, 0x00, 0x00, 0x00, 0x06, 0x11, 0x03, 0x00, 0x6B, 0x00, 0x03};
     EXPECT_EQ(mbap_adu_length(adu), 12U);
