@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "input/pcap.hpp"
 #include "input/sources.hpp"
 #include "output/filter.hpp"
 #include "output/sinks.hpp"
@@ -89,10 +90,14 @@ inline void profile_loader(const std::uint8_t* data, std::size_t size) {
     (void)load_profile_text(as_string(data, size), "fuzz.toml");
 }
 
-// pcap and pcapng files: libpcap, then the link-type parsers.
+// pcap and pcapng files: libpcap (and rtuscope's own pcapng reader where libpcap refuses
+// a file), then the link-type parsers, TCP reassembly and the flows; and the same bytes
+// through rtuscope's pcapng reader alone.
 inline void pcap_reader(const std::uint8_t* data, std::size_t size) {
     auto source = source_from_memory(as_string(data, size), "fuzz.pcap", InputFormat::pcap);
     if (source) drain(**source);
+    auto own = pcapng_source_from_memory(as_string(data, size), "fuzz.pcapng");
+    if (own) drain(**own);
 }
 
 // The readers alone, without the chain behind them; the first byte picks the format

@@ -32,6 +32,9 @@ void count(Totals& totals, const Record& record) {
         totals.cut_by_stop_bytes += record.frame.bytes.size();
         return;
     }
+    // The end of a packet the capture's snap length cut: no fault of the bus's (the
+    // source's remarks count such packets).
+    if (record.notes.has(note_id::cut_by_snaplen)) return;
     switch (record.kind) {
         case Kind::request:
             ++totals.requests;

@@ -85,12 +85,13 @@ TEST(Jsonl, OneObjectPerRecordWithDecodedFieldsAndValues) {
               R"(0x0012","hex":"01040015001261C3","flags":[],"notes":[],"channel":null,)"
               R"("function_name":"Set correction coefficient","exception":null,)"
               R"("profile":"zb-uvi485","values":[{"address":21,"name":"correction_coefficient",)"
-              R"("value":1.8,"unit":"","raw":"0x0012","flags":[],"notes":[]}]})");
+              R"("value":1.8,"unit":"","raw":"0x0012","flags":[],"notes":[]}],)"
+              R"("transport":"rtu","transaction":null})");
     EXPECT_NE(lines[1].find(R"("kind":"response","crc":"ok","request":1,)"), std::string::npos);
     // Slave 2 has no profile: no values, and the bad CRC is in the flags.
     EXPECT_NE(lines[2].find(R"("kind":"invalid","crc":"bad",)"), std::string::npos);
     EXPECT_NE(lines[2].find(R"("flags":["frame.crc_mismatch"],)"), std::string::npos) << lines[2];
-    EXPECT_NE(lines[2].find(R"("profile":null,"values":[]})"), std::string::npos);
+    EXPECT_NE(lines[2].find(R"("profile":null,"values":[],)"), std::string::npos);
     EXPECT_NE(lines[3].find(R"("exception":{"code":2,"name":"Illegal Data Address"})"),
               std::string::npos)
         << lines[3];

@@ -13,13 +13,13 @@
 #include "input/pcap.hpp"
 #include "input/sources.hpp"
 #include "output/pcap_writer.hpp"
+#include "pcap_builders.hpp"
 #include "support.hpp"
 
 namespace rtuscope {
 namespace {
 
-using test::Bytes;
-using test::with_crc;
+using namespace test;  // Bytes, with_crc, the pcap builders
 
 constexpr Nanos kT0 = 1'763'798'400'000'000'000;  // 2025-11-22, a whole second
 const Nanos kChar = LineSettings{}.char_time();   // 9600 8N1
@@ -59,8 +59,6 @@ std::vector<Record> sample_records() {
     };
 }
 
-using test::TempDir;
-
 std::string write_records(const std::string& path, const std::vector<Record>& records) {
     auto sink = make_pcap_sink(path);
     EXPECT_TRUE(sink.ok()) << sink.error().to_string();
@@ -73,210 +71,6 @@ std::string write_records(const std::string& path, const std::vector<Record>& re
     std::stringstream ss;
     ss << in.rdbuf();
     return ss.str();
-}
-
-void put16(std::string& out, std::uint16_t v, bool big) {
-    if (big) {
-        out += static_cast<char>(v >> 8);
-        out += static_cast<char>(v & 0xFF);
-    } else {
-        out += static_cast<char>(v & 0xFF);
-        out += static_cast<char>(v >> 8);
-    }
-}
-
-void put32(std::string& out, std::uint32_t v, bool big = false) {
-    if (big) {
-        put16(out, static_cast<std::uint16_t>(v >> 16), true);
-        put16(out, static_cast<std::uint16_t>(v), true);
-    } else {
-        put16(out, static_cast<std::uint16_t>(v), false);
-        put16(out, static_cast<std::uint16_t>(v >> 16), false);
-    }
-}
-
-std::string str(const Bytes& b) {
-    return {b.begin(), b.end()};
-}
-
-struct Packet {
-    Nanos time;
-    Bytes data;
-};
-
-// A classic pcap file, microsecond timestamps, little-endian.
-std::string pcap_file(std::uint32_t linktype, const std::vector<Packet>& packets) {
-    std::string out;
-    put32(out, 0xA1B2C3D4);
-    put16(out, 2, false);
-    put16(out, 4, false);
-    put32(out, 0);
-    put32(out, 0);
-    put32(out, 65535);
-    put32(out, linktype);
-    for (const Packet& p : packets) {
-        put32(out, static_cast<std::uint32_t>(p.time / kNanosPerSecond));
-        put32(out, static_cast<std::uint32_t>(p.time % kNanosPerSecond / 1000));
-        put32(out, static_cast<std::uint32_t>(p.data.size()));
-        put32(out, static_cast<std::uint32_t>(p.data.size()));
-        out += str(p.data);
-    }
-    return out;
-}
-
-// A pcapng file: section header, one interface (microsecond resolution), enhanced
-// packet blocks.
-std::string pcapng_file(std::uint16_t linktype, const std::vector<Packet>& packets) {
-    std::string out;
-    put32(out, 0x0A0D0D0A);
-    put32(out, 28);
-    put32(out, 0x1A2B3C4D);
-    put16(out, 1, false);
-    put16(out, 0, false);
-    put32(out, 0xFFFFFFFF);
-    put32(out, 0xFFFFFFFF);
-    put32(out, 28);
-    put32(out, 1);
-    put32(out, 20);
-    put16(out, linktype, false);
-    put16(out, 0, false);
-    put32(out, 65535);
-    put32(out, 20);
-    for (const Packet& p : packets) {
-        const std::size_t padded = (p.data.size() + 3) & ~std::size_t{3};
-        const auto length = static_cast<std::uint32_t>(32 + padded);
-        const auto us = static_cast<std::uint64_t>(p.time / 1000);
-        put32(out, 6);
-        put32(out, length);
-        put32(out, 0);
-        put32(out, static_cast<std::uint32_t>(us >> 32));
-        put32(out, static_cast<std::uint32_t>(us));
-        put32(out, static_cast<std::uint32_t>(p.data.size()));
-        put32(out, static_cast<std::uint32_t>(p.data.size()));
-        out += str(p.data);
-        out.append(padded - p.data.size(), '\0');
-        put32(out, length);
-    }
-    return out;
-}
-
-Bytes tcp(std::uint16_t src, std::uint16_t dst, const Bytes& payload) {
-    Bytes t = {static_cast<std::uint8_t>(src >> 8),
-               static_cast<std::uint8_t>(src),
-               static_cast<std::uint8_t>(dst >> 8),
-               static_cast<std::uint8_t>(dst),
-               0,
-               0,
-               0,
-               1,
-               0,
-               0,
-               0,
-               0,
-               0x50,
-               0x18,
-               0x10,
-               0x00,
-               0,
-               0,
-               0,
-               0};
-    t.insert(t.end(), payload.begin(), payload.end());
-    return t;
-}
-
-Bytes udp(std::uint16_t src, std::uint16_t dst, const Bytes& payload) {
-    const auto length = static_cast<std::uint16_t>(8 + payload.size());
-    Bytes u = {static_cast<std::uint8_t>(src >> 8),
-               static_cast<std::uint8_t>(src),
-               static_cast<std::uint8_t>(dst >> 8),
-               static_cast<std::uint8_t>(dst),
-               static_cast<std::uint8_t>(length >> 8),
-               static_cast<std::uint8_t>(length),
-               0,
-               0};
-    u.insert(u.end(), payload.begin(), payload.end());
-    return u;
-}
-
-Bytes ipv4(std::uint8_t protocol, const Bytes& payload) {
-    const auto length = static_cast<std::uint16_t>(20 + payload.size());
-    Bytes ip = {0x45,
-                0,
-                static_cast<std::uint8_t>(length >> 8),
-                static_cast<std::uint8_t>(length),
-                0,
-                0,
-                0x40,
-                0,
-                64,
-                protocol,
-                0,
-                0,
-                10,
-                0,
-                0,
-                1,
-                10,
-                0,
-                0,
-                2};
-    ip.insert(ip.end(), payload.begin(), payload.end());
-    return ip;
-}
-
-Bytes ipv6(std::uint8_t next, const Bytes& payload) {
-    const auto length = static_cast<std::uint16_t>(payload.size());
-    Bytes ip = {
-        0x60, 0, 0, 0, static_cast<std::uint8_t>(length >> 8), static_cast<std::uint8_t>(length),
-        next, 64};
-    ip.resize(40, 0);
-    ip[23] = 1;
-    ip[39] = 2;
-    ip.insert(ip.end(), payload.begin(), payload.end());
-    return ip;
-}
-
-Bytes ethernet(std::uint16_t type, const Bytes& payload) {
-    Bytes e = {2,
-               0,
-               0,
-               0,
-               0,
-               1,
-               2,
-               0,
-               0,
-               0,
-               0,
-               2,
-               static_cast<std::uint8_t>(type >> 8),
-               static_cast<std::uint8_t>(type)};
-    e.insert(e.end(), payload.begin(), payload.end());
-    if (e.size() < 60) e.resize(60, 0);  // Ethernet's minimum frame, padded
-    return e;
-}
-
-struct Drained {
-    std::vector<Chunk> chunks;
-    std::optional<Error> error;
-    std::vector<std::string> remarks;
-};
-
-Drained drain(ChunkSource& source) {
-    Drained d;
-    for (;;) {
-        Chunk c;
-        Result<bool> more = source.next(c);
-        if (!more) {
-            d.error = more.error();
-            break;
-        }
-        if (!*more) break;
-        d.chunks.push_back(std::move(c));
-    }
-    d.remarks = source.remarks();
-    return d;
 }
 
 Drained read_memory(const std::string& content) {

@@ -10,14 +10,14 @@ namespace {
 
 // Many devices take fewer registers per request than the standard's 125 (the PDU485:
 // 100); a master asking for more gets an exception or silence, and this says why. The
-// register reads and writes (03, 04, 10, 17) carry their quantity in bytes 4-5 of the ADU.
+// register reads and writes (03, 04, 10, 17) carry their quantity in bytes 3-4 of the PDU.
 void note_over_device_limit(Record& record, const FunctionSpec& spec, const Profile& profile) {
     const bool counts_registers =
         spec.max_quantity != 0 &&
         (spec.table == DataTable::holding_registers || spec.table == DataTable::input_registers);
-    const auto& b = record.frame.bytes;
-    if (!counts_registers || b.size() < 8) return;
-    const auto quantity = static_cast<unsigned>((b[4] << 8) | b[5]);
+    const auto pdu = record.frame.pdu();
+    if (!counts_registers || pdu.size() < 5) return;
+    const auto quantity = static_cast<unsigned>((pdu[3] << 8) | pdu[4]);
     if (quantity > profile.max_registers) {
         record.notes.add(note_id::over_device_limit,
                          fmt::format("{} registers asked, {} allows at most {}", quantity,
@@ -47,9 +47,9 @@ void decode_record(Record& record, const ProtocolRules& rules, const Bus* bus) {
     record.profile = bus != nullptr && !frame.bytes.empty() ? bus->owner(frame.slave()) : nullptr;
     if (frame.cls == RecordClass::noise || frame.bytes.size() < 2) return;
     const FunctionSpec& spec = rules.function(frame.slave(), frame.function());
-    if (frame.bytes.size() < kMinAdu || record.notes.has(note_id::truncated) ||
-        record.notes.has(note_id::cut_by_stop)) {
-        // No CRC at the end to strip: name the function, decode nothing.
+    if (frame.pdu().empty() || record.notes.has(note_id::truncated) ||
+        record.notes.has(note_id::cut_by_stop) || record.notes.has(note_id::cut_by_snaplen)) {
+        // Cut short (no CRC at the end to strip): name the function, decode nothing.
         record.decoded.function = &spec;
         record.decoded.function_name = spec.name;
         return;
@@ -58,11 +58,7 @@ void decode_record(Record& record, const ProtocolRules& rules, const Bus* bus) {
                        frame.reading == Reading::response || frame.reading == Reading::exception)
                           ? Role::response
                           : Role::request;
-    std::span<const std::uint8_t> request_pdu;
-    if (record.request.size() >= kMinAdu) {
-        request_pdu = std::span(record.request).subspan(1, record.request.size() - 3);
-    }
-    decode_pdu(spec, frame.pdu(), role, request_pdu, record.decoded);
+    decode_pdu(spec, frame.pdu(), role, pdu_of(record.request, frame.transport), record.decoded);
     for (const Note& note : record.decoded.notes) record.notes.add(note.id, note.text);
     note_reserved_address(record);
     if (record.profile != nullptr && role == Role::request) {

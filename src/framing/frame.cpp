@@ -2,9 +2,17 @@
 
 namespace rtuscope {
 
-std::span<const std::uint8_t> Frame::pdu() const {
+std::span<const std::uint8_t> pdu_of(std::span<const std::uint8_t> bytes, Transport transport) {
+    if (transport == Transport::tcp) {
+        if (bytes.size() < 2) return {};  // unit id, function at least
+        return bytes.subspan(1);
+    }
     if (bytes.size() < 4) return {};  // address, function, CRC at least
-    return std::span(bytes).subspan(1, bytes.size() - 3);
+    return bytes.subspan(1, bytes.size() - 3);
+}
+
+const char* to_string(Transport transport) {
+    return transport == Transport::tcp ? "tcp" : "rtu";
 }
 
 const char* to_string(RecordClass cls) {

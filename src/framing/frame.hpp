@@ -10,6 +10,7 @@
 #include "framing/crc.hpp"
 #include "framing/functions.hpp"
 #include "framing/note.hpp"
+#include "framing/transport.hpp"
 #include "util/time.hpp"
 
 namespace rtuscope {
@@ -32,6 +33,9 @@ enum class Delimiter : std::uint8_t {
 // Which reading of the bytes the framer chose (Modbus request or answer layout).
 enum class Reading : std::uint8_t { request, response, exception, unknown };
 
+// Function code and data of a frame's bytes, without the address or unit id and the CRC.
+std::span<const std::uint8_t> pdu_of(std::span<const std::uint8_t> bytes, Transport transport);
+
 struct Frame {
     Nanos start = kNoTime;  // first byte's start (estimated from the chunk timing)
     Nanos end = kNoTime;    // last byte's end
@@ -46,12 +50,14 @@ struct Frame {
     std::string channel;
     int source_line = 0;  // input line of the first byte, 0 if none
     Notes notes;
+    Transport transport = Transport::rtu;
+    Mbap mbap{};  // Modbus/TCP only
 
     [[nodiscard]] bool is_frame() const { return cls != RecordClass::noise; }
     [[nodiscard]] std::uint8_t slave() const { return bytes.empty() ? 0 : bytes[0]; }
     [[nodiscard]] std::uint8_t function() const { return bytes.size() < 2 ? 0 : bytes[1]; }
-    // function code and data, without the address and the CRC
-    [[nodiscard]] std::span<const std::uint8_t> pdu() const;
+    // function code and data, without the address (unit id) and the CRC
+    [[nodiscard]] std::span<const std::uint8_t> pdu() const { return pdu_of(bytes, transport); }
     // Becomes `other`, giving it this frame's byte and note buffers in exchange: a frame
     // handed on once per record costs no copy and no allocation. Sets every field (a new
     // field must be added there too).
@@ -68,6 +74,8 @@ struct Frame {
         delimiter = other.delimiter;
         crc = other.crc;
         source_line = other.source_line;
+        transport = other.transport;
+        mbap = other.mbap;
     }
 };
 

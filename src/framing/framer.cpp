@@ -167,9 +167,13 @@ void Framer::forget_unused_channels() {
 
 void Framer::push(const Chunk& chunk) {
     if (chunk.bytes.empty()) return;
+    // The stream so far cannot go on into a frame that stands on its own, or into a packet.
+    if ((chunk.whole_frame || chunk.packet) && pos_ < bytes_.size()) decide(true);
+    if (chunk.transport == Transport::tcp) {
+        emit_modbus_tcp(chunk);
+        return;
+    }
     if (chunk.whole_frame) {
-        // The stream so far cannot go on into a frame that stands on its own.
-        if (pos_ < bytes_.size()) decide(true);
         emit_chunk_as_frame(chunk);
         return;
     }
@@ -201,11 +205,19 @@ void Framer::push(const Chunk& chunk) {
         if (has_time(last_end_)) {
             gap = std::max<Nanos>(0, first_start - last_end_);
             if (first_start < last_end_ && !clock_back) {
-                if (start_stamped) last_end += last_end_ - first_start;
-                first_start = last_end_;
+                if (chunk.packet && !chunk.time_estimated) {
+                    // A packet's stamp is its first byte's start, as the capture measured
+                    // it: kept, though the line settings end the bytes before it later.
+                    gap = kNoTime;
+                } else {
+                    if (start_stamped) last_end += last_end_ - first_start;
+                    first_start = last_end_;
+                }
             }
         }
     }
+    // Placed after the bytes before it, or after bytes placed so: no silence measured.
+    if (chunk.time_estimated || last_end_estimated()) gap = kNoTime;
     if (!seen_bytes_ || channel_changed) gap = kBoundary;
     // After a frame that stood on its own the stream starts afresh, silence measured or not.
     if (after_whole_frame_ && !is_measured(gap)) gap = kBoundary;
@@ -228,8 +240,10 @@ void Framer::push(const Chunk& chunk) {
     piece.channel = channel;
     // A log's stamp says when a line was seen, never when each byte ended.
     piece.exact = chunk.bytes.size() == 1 && previous_chunk_single_ && !start_stamped;
+    piece.starts_frame = chunk.packet;
+    packet_first_ = chunk.packet ? piece.first : kNoIndex;
     pieces_.push_back(piece);
-    if (ends_frame(gap)) frame_gaps_.push_back(piece.first);
+    if (ends_frame(gap) || piece.starts_frame) frame_gaps_.push_back(piece.first);
     const auto errors_before = static_cast<std::ptrdiff_t>(char_errors_.size());
     for (const std::uint32_t offset : chunk.char_errors) {
         if (offset < chunk.bytes.size()) char_errors_.push_back(bytes_.size() + offset);
@@ -244,6 +258,13 @@ void Framer::push(const Chunk& chunk) {
     previous_chunk_single_ = chunk.bytes.size() == 1;
     seen_bytes_ = true;
     after_whole_frame_ = false;
+    if (chunk.packet && chunk.bytes_not_captured != 0) {
+        // Nothing can follow the cut in this packet: decided now, its cut end noted.
+        not_captured_ = chunk.bytes_not_captured;
+        decide(true);
+        not_captured_ = 0;
+        return;
+    }
     decide(false);
 }
 
@@ -310,7 +331,9 @@ Nanos Framer::gap_at(const Piece& p, std::size_t at) const {
 
 bool Framer::gap_before(std::size_t at) const {
     if (at >= bytes_.size()) return false;
-    return ends_frame(gap_at(at));
+    const Piece& piece = piece_of(at);
+    if (piece.first != base_ + at) return false;
+    return piece.starts_frame || ends_frame(piece.gap);
 }
 
 std::size_t Framer::gap_after(std::size_t after, std::size_t limit) const {
@@ -673,6 +696,12 @@ void Framer::classify_unframed(std::size_t from, std::size_t to) {
                 continue;
             }
         }
+        // The end of a packet the capture cut: what is there of a frame, whatever its shape.
+        if (not_captured_ != 0 && end == bytes_.size()) {
+            emit_cut_by_capture(start, n);
+            start = end;
+            continue;
+        }
         // What was on the line when a run stopped is cut by the stop, whatever its gaps.
         const bool cut_by_stop = stopped_ && end == bytes_.size();
         if (n >= 3 && (bounded_by_gaps || cut_by_stop) && emit_if_truncated(start, n)) {
@@ -742,6 +771,19 @@ bool Framer::emit_if_truncated(std::size_t at, std::size_t n) {
     return false;
 }
 
+void Framer::emit_cut_by_capture(std::size_t at, std::size_t n) {
+    const auto piece = std::span(bytes_).subspan(at, n);
+    Reading reading = Reading::unknown;
+    if (n >= 2) {
+        reading = expects_answer_at(at, piece) ? reading_for(Role::response, piece[1])
+                                               : Reading::request;
+    }
+    const Note cut{note_id::cut_by_snaplen,
+                   fmt::format("packet cut by the capture's snap length ({} {} not captured)",
+                               not_captured_, not_captured_ == 1 ? "byte" : "bytes")};
+    emit(at, n, RecordClass::invalid, reading, Delimiter::end_of_input, {}, &cut);
+}
+
 void Framer::emit_chunk_as_frame(const Chunk& chunk) {
     Frame& frame = frame_;
     frame.notes.clear();
@@ -761,9 +803,10 @@ void Framer::emit_chunk_as_frame(const Chunk& chunk) {
         }
     }
     if (has_time(frame.start) && has_time(last_end_) && frame.start >= last_end_ &&
-        !chunk.time_estimated) {
+        !chunk.time_estimated && !last_end_estimated()) {
         frame.silence_before = frame.start - last_end_;
     }
+    packet_first_ = kNoIndex;
     if (has_time(frame.end)) {
         last_end_ = frame.end;
         last_stamp_ = chunk.time;
@@ -793,6 +836,34 @@ void Framer::emit_chunk_as_frame(const Chunk& chunk) {
     emit_(frame);
 }
 
+void Framer::emit_modbus_tcp(const Chunk& chunk) {
+    Frame& frame = frame_;
+    frame.notes.clear();
+    frame.bytes = chunk.bytes;
+    frame.transport = Transport::tcp;
+    frame.mbap = chunk.mbap;
+    // A packet's time, no line time: the turnaround is from packet to packet, as
+    // Wireshark's. Nor does it end a silence on any serial line.
+    frame.start = chunk.time;
+    frame.end = chunk.time;
+    frame.silence_before = kNoTime;
+    frame.channel = chunk.channel;
+    frame.source_line = chunk.source_line;
+    frame.delimiter = Delimiter::line;
+    frame.crc = {};  // none: TCP checks its segments
+    frame.cls = frame.bytes.size() >= 2 ? RecordClass::frame : RecordClass::invalid;
+    // The port says which way it went; without one, the pairing decides by transaction id.
+    frame.reading = Reading::unknown;
+    if (frame.bytes.size() >= 2 && !chunk.channel.empty() && !options_.request_channel.empty()) {
+        frame.reading = chunk.channel == options_.request_channel
+                            ? Reading::request
+                            : reading_for(Role::response, frame.bytes[1]);
+    }
+    emit_(frame);
+    frame.transport = Transport::rtu;
+    frame.mbap = {};
+}
+
 void Framer::emit(std::size_t at, std::size_t length, RecordClass cls, Reading reading,
                   Delimiter delimiter, CrcCheck crc, const Note* note) {
     Frame& frame = frame_;
@@ -815,6 +886,7 @@ void Framer::emit(std::size_t at, std::size_t length, RecordClass cls, Reading r
     frame.end = within_piece ? byte_end(piece, at + length - 1) : byte_end(at + length - 1);
     const Nanos gap = gap_at(piece, at);
     frame.silence_before = is_measured(gap) ? gap : kNoTime;
+    last_record_first_ = base_ + at;
     const std::string& channel = channels_[piece.channel];
     if (frame.channel != channel) frame.channel = channel;
     frame.source_line = piece.line;

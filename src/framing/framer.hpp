@@ -49,7 +49,10 @@ class Framer {
 
     // Adds a chunk; emits every record that the bytes so far decide. A whole-frame chunk
     // (Chunk::whole_frame) is a frame as it is: what is buffered before it is decided as
-    // if the input ended there, then it is emitted.
+    // if the input ended there, then it is emitted. A packet (Chunk::packet) is framed on
+    // its own the same way: what is buffered before it is decided first, and its start is
+    // a frame boundary; a packet the capture cut (Chunk::bytes_not_captured) is decided
+    // at once, its unframed end noted as cut by the capture.
     void push(const Chunk& chunk);
     // Live input: nothing has arrived up to `now`. Once the line has been quiet for
     // longer than t3.5 plus `idle_margin`, what is buffered is decided as if the input
@@ -117,7 +120,11 @@ class Framer {
                                            bool any_length_fits_search,
                                            const std::string& channel) const;
     bool emit_if_truncated(std::size_t at, std::size_t n);
+    // The `n` bytes at `at` that end a packet the capture cut, forming no frame.
+    void emit_cut_by_capture(std::size_t at, std::size_t n);
     void emit_chunk_as_frame(const Chunk& chunk);
+    // A Modbus/TCP ADU (Chunk::transport): a frame without CRC or line timing.
+    void emit_modbus_tcp(const Chunk& chunk);
     // `crc`: the check the caller made (none for noise and for frames cut short);
     // `note`: the caller's, if any, after the CRC's.
     void emit(std::size_t at, std::size_t length, RecordClass cls, Reading reading,
@@ -137,6 +144,7 @@ class Framer {
         int line = 0;
         std::uint32_t channel = 0;  // in channels_
         bool exact = false;         // it and the chunk before came alone (per-byte timing)
+        bool starts_frame = false;  // a packet: a frame boundary whatever the silence
     };
     // The chunk byte `at` came in. Asked several times per frame, mostly for the chunk
     // asked last, so that case is inline.
@@ -210,8 +218,19 @@ class Framer {
     Nanos last_stamp_ = kNoTime;                  // the last chunk's time, as the input stamped it
     bool seen_bytes_ = false;
     bool stopped_ = false;  // finish(true): the bytes at the end were cut by the stop
+    // While a packet the capture cut is decided: how many of its bytes it did not keep.
+    std::uint32_t not_captured_ = 0;
     bool previous_chunk_single_ = false;
     bool after_whole_frame_ = false;  // the last chunk was a whole frame
+    // The stream index of the last record's first byte, and of the last chunk's when it
+    // was a packet (else kNoIndex): after a packet of several records, only its first
+    // record's start was measured, so its end as placed is a lower bound.
+    static constexpr std::uint64_t kNoIndex = ~std::uint64_t{0};
+    std::uint64_t last_record_first_ = kNoIndex;
+    std::uint64_t packet_first_ = kNoIndex;
+    [[nodiscard]] bool last_end_estimated() const {
+        return packet_first_ != kNoIndex && last_record_first_ != packet_first_;
+    }
 };
 
 }  // namespace rtuscope

@@ -51,6 +51,8 @@ inline constexpr const char* reserved_address = "frame.reserved_address";  // sl
 inline constexpr const char* time_backwards = "frame.time_backwards";      // capture clock jumped
 // in progress when a run stopped (--seconds, a signal, the end of a live stream): not an error
 inline constexpr const char* cut_by_stop = "frame.cut_by_stop";
+// a pcap packet's end that the capture's snap length cut off: not an error of the bus
+inline constexpr const char* cut_by_snaplen = "frame.cut_by_snaplen";
 // transactions
 inline constexpr const char* no_answer = "txn.no_answer";
 inline constexpr const char* unsolicited = "txn.unsolicited";  // answer with no request

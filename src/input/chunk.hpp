@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "framing/line_settings.hpp"
+#include "framing/transport.hpp"
 #include "util/result.hpp"
 #include "util/time.hpp"
 
@@ -34,9 +35,22 @@ struct Chunk {
     // byte's end, when the source knows it (a pcap rtuscope wrote); else the character
     // time of the line settings gives it.
     Nanos duration = kNoTime;
-    // Whole frames: the time is an estimate (the frame was found inside a chunk a USB
-    // adapter delivered with others), so the silence before it is not known.
+    // Whole frames and packets: the time is an estimate (the frame was found inside a
+    // chunk a USB adapter delivered with others; a TCP stream's bytes that came after
+    // frames in an earlier segment), so the silence before it is not known.
     bool time_estimated = false;
+    // The bytes are one packet of a capture (a pcap), to be framed on their own: no frame
+    // runs into it or out of it. A serial sniffer cuts its packets at silences, and TCP
+    // and UDP carry a frame or more a packet, so a packet's start is a frame boundary
+    // whatever the silence before it, and what came before it is decided first.
+    bool packet = false;
+    // Packets: how many of the packet's bytes the capture did not keep (its snap length
+    // cut it). Bytes at its end that form no whole frame were cut by the capture, not on
+    // the line.
+    std::uint32_t bytes_not_captured = 0;
+    // Whole frames: Modbus/TCP (bytes: the unit id and the PDU) or RTU.
+    Transport transport = Transport::rtu;
+    Mbap mbap{};  // Modbus/TCP only
 };
 
 // What a source knows about itself once its header (if any) has been read.

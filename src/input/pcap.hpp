@@ -1,7 +1,10 @@
-// pcap in: pcap and pcapng files (libpcap) whose packets hold Modbus RTU frames: exported
+// pcap in: pcap and pcapng files whose packets hold Modbus RTU or Modbus/TCP: exported
 // PDUs (link type 252, as `--pcap` writes them: output/pcap_writer.hpp), RTAC serial (250),
-// DLT_USER0-15 (147-162), and Modbus RTU over TCP or UDP in Ethernet, Linux cooked or raw
-// IP captures. The link types and ports below are shared with the writer.
+// DLT_USER0-15 (147-162), and Modbus RTU or Modbus/TCP over TCP or UDP in Ethernet, Linux
+// cooked or raw IP captures.
+// libpcap reads them, rtuscope's own pcapng reader the pcapng files libpcap refuses (with
+// interfaces of several link types). The link types and ports below are shared with the
+// writer.
 #pragma once
 
 #include <cstdint>
@@ -26,17 +29,28 @@ inline constexpr std::uint16_t kModbusPort = 502;
 // The master's side of the written "connection".
 inline constexpr std::uint16_t kMasterPort = 49152;
 
-// A source over a pcap or pcapng file. Each packet holding a Modbus RTU frame becomes one
-// whole-frame Chunk (Chunk::whole_frame): its time is the packet's timestamp, the
-// frame's start (chunk_time_is_start), its channel "master" when the packet went to port
-// 502, "slave" when it came from port 502, empty otherwise. Packets that carry no frame
-// (other protocols, empty TCP segments, exported PDUs for other dissectors) are skipped
-// and counted in remarks(). A file cut short or corrupt gives its packets up to the bad
-// one, then an error naming the packet.
+// A source over a pcap or pcapng file. A packet that is exactly one Modbus RTU frame by
+// length and CRC (and every exported PDU) becomes a whole-frame Chunk
+// (Chunk::whole_frame), any other a packet Chunk (Chunk::packet) the framer cuts into
+// frames; a Modbus/TCP ADU is a whole-frame chunk of Transport::tcp (its unit id and PDU,
+// its transaction id and connection in Chunk::mbap). TCP streams are reassembled first,
+// so a frame or an ADU sent in two segments comes whole.
+// A chunk's time is its packet's timestamp, its first byte's start (chunk_time_is_start);
+// its channel "master" when the packet went to port 502, "slave" when it came from port
+// 502, empty otherwise. Packets that carry no Modbus (other protocols, empty TCP
+// segments, retransmissions, exported PDUs for other dissectors, interfaces of other link
+// types) are skipped and counted in remarks(), and so are packets the capture's snap
+// length cut. A file cut short or corrupt gives its packets up to the bad one, then an
+// error naming the packet.
 Result<std::unique_ptr<ChunkSource>> open_pcap_source(const std::string& path);
 
 // The same over a file in memory; `name` is used in messages.
 Result<std::unique_ptr<ChunkSource>> pcap_source_from_memory(std::string content, std::string name);
+
+// The same through rtuscope's own pcapng reader alone, which is otherwise used only where
+// libpcap refuses a file (tests, fuzzers).
+Result<std::unique_ptr<ChunkSource>> pcapng_source_from_memory(std::string content,
+                                                               std::string name);
 
 // The same over `head` (bytes already read from the stream, e.g. by format detection)
 // followed by the rest of `rest` (may be null). Owns `rest` when `close_rest`.

@@ -1,13 +1,16 @@
-// pcap and pcapng input through libpcap: each packet that holds a Modbus RTU frame becomes
-// one chunk. Which part of a packet is the frame depends on the link type; see
-// read_packet(). libpcap reads from a FILE*; a cookie stream puts the bytes that format
+// pcap and pcapng input: packets from libpcap, or from rtuscope's own pcapng reader
+// where libpcap refuses a pcapng file (pcapng_reader.hpp); the packets become chunks in
+// pcap_packets.cpp. libpcap reads from a FILE*; a cookie stream puts the bytes that format
 // detection already took from a pipe back in front of the rest.
+#include <fcntl.h>
 #include <fmt/format.h>
 #include <pcap/pcap.h>
+#include <unistd.h>
 
+#include <algorithm>
+#include <array>
 #include <cerrno>
 #include <cstring>
-#include <map>
 #include <memory>
 #include <optional>
 #include <span>
@@ -15,283 +18,238 @@
 #include <utility>
 
 #include "input/pcap.hpp"
+#include "input/pcap_packets.hpp"
+#include "input/pcapng_reader.hpp"
 #include "input/readers.hpp"
 #include "input/sources.hpp"
 #include "util/io_block.hpp"
 
 namespace rtuscope {
 
+using pcap::Packet;
+using pcap::PacketChunker;
+using pcap::PacketReader;
+using pcap::PcapngReader;
+
 namespace {
 
-using Bytes = std::span<const std::uint8_t>;
+// A pipe's bytes that libpcap read before its first packet are kept, up to this bound,
+// so that the file can be read again from its start if libpcap refuses it.
+constexpr std::size_t kMaxKeptForRereading = std::size_t{1} << 20;
 
-// Link types as libpcap reports them (pcap_datalink gives DLT_ values; for most they are
-// the LINKTYPE_ values of the file).
-constexpr int kDltNull = 0;
-constexpr int kDltEthernet = 1;
-constexpr int kDltRaw = 12;         // DLT_RAW on most systems (LINKTYPE_RAW is 101)
-constexpr int kDltRawOpenBsd = 14;  // DLT_RAW on OpenBSD
-constexpr int kLinktypeRaw = 101;
-constexpr int kDltLoop = 108;
-constexpr int kDltLinuxSll = 113;
-constexpr int kDltUser0 = 147;
-constexpr int kDltUser15 = 162;
-constexpr int kDltIpv4 = 228;
-constexpr int kDltIpv6 = 229;
-constexpr int kDltLinuxSll2 = 276;
-
-constexpr std::uint16_t kTagEndOfOpt = 0;
-constexpr std::uint16_t kTagDissectorName = 12;
-constexpr std::uint16_t kTagHeuristicName = 13;
-constexpr std::uint16_t kTagSrcPort = 25;
-constexpr std::uint16_t kTagDstPort = 26;
-// rtuscope's own (output/pcap_writer.cpp): the frame's duration, the top bit set when its
-// start is an estimate.
-constexpr std::uint16_t kTagFrameTiming = 0xF2A5;
-constexpr std::uint64_t kTimeEstimated = std::uint64_t{1} << 63U;
-constexpr std::size_t kRtacHeaderBytes = 12;  // secs, usecs, event, control lines, footer
-
-std::uint16_t be16(Bytes b, std::size_t at) {
-    return static_cast<std::uint16_t>((b[at] << 8) | b[at + 1]);
+bool starts_like_pcapng(std::string_view head) {
+    // A section header block's type.
+    return head.size() >= 4 && head.substr(0, 4) == std::string_view("\x0A\x0D\x0D\x0A", 4);
 }
 
-std::uint32_t be32(Bytes b, std::size_t at) {
-    return (std::uint32_t{be16(b, at)} << 16) | be16(b, at + 2);
-}
-
-bool supported_link_type(int dlt) {
-    switch (dlt) {
-        case kLinktypeUpperPdu:
-        case kLinktypeRtacSerial:
-        case kDltNull:
-        case kDltEthernet:
-        case kDltRaw:
-        case kDltRawOpenBsd:
-        case kLinktypeRaw:
-        case kDltLoop:
-        case kDltLinuxSll:
-        case kDltIpv4:
-        case kDltIpv6:
-        case kDltLinuxSll2:
-            return true;
-        default:
-            return dlt >= kDltUser0 && dlt <= kDltUser15;
-    }
-}
-
-std::string_view channel_for_ports(std::uint32_t src, std::uint32_t dst) {
-    if (dst == kModbusPort && src != kModbusPort) return "master";
-    if (src == kModbusPort && dst != kModbusPort) return "slave";
-    return {};
-}
-
-// What one packet holds: the frame and its direction, or why there is none (counted in
-// the remarks), or an Error for a packet that is broken where it should not be.
-struct Extracted {
-    Bytes frame;
-    std::string_view channel;  // "master", "slave" or none
-    std::string skipped;       // non-empty: no frame, and why
-    Nanos duration = kNoTime;  // the frame's time on the line, when the packet says
-    bool time_estimated = false;
-};
-
-Extracted skip(std::string why) {
-    Extracted e;
-    e.skipped = std::move(why);
-    return e;
-}
-
-Extracted transport_payload(std::uint8_t protocol, Bytes p) {
-    if (protocol == 6) {
-        if (p.size() < 20) return skip("TCP header cut short");
-        const std::size_t header = std::size_t{static_cast<std::uint8_t>(p[12] >> 4)} * 4;
-        if (header < 20 || header > p.size()) return skip("TCP header cut short");
-        if (header == p.size()) return skip("TCP segments without data");
-        return {p.subspan(header), channel_for_ports(be16(p, 0), be16(p, 2)), {}};
-    }
-    if (protocol == 17) {
-        if (p.size() < 8) return skip("UDP header cut short");
-        const std::size_t length = std::min<std::size_t>(be16(p, 4), p.size());
-        if (length <= 8) return skip("UDP datagrams without data");
-        return {p.subspan(8, length - 8), channel_for_ports(be16(p, 0), be16(p, 2)), {}};
-    }
-    return skip("IP packets that are not TCP or UDP");
-}
-
-Extracted ip_payload(Bytes ip) {
-    if (ip.empty()) return skip("packets too short for IP");
-    const int version = ip[0] >> 4;
-    if (version == 4) {
-        const std::size_t header = std::size_t{static_cast<std::uint8_t>(ip[0] & 0x0FU)} * 4;
-        if (ip.size() < 20 || header < 20 || header > ip.size()) return skip("bad IPv4 headers");
-        // Ethernet pads short packets; the IP length says where the packet ends.
-        const std::size_t total = std::min<std::size_t>(be16(ip, 2), ip.size());
-        if (total < header) return skip("bad IPv4 headers");
-        if ((be16(ip, 6) & 0x3FFFU) != 0) return skip("IP fragments (not reassembled)");
-        return transport_payload(ip[9], ip.subspan(header, total - header));
-    }
-    if (version == 6) {
-        if (ip.size() < 40) return skip("bad IPv6 headers");
-        const std::size_t total = std::min<std::size_t>(40 + std::size_t{be16(ip, 4)}, ip.size());
-        std::uint8_t next = ip[6];
-        std::size_t at = 40;
-        // Hop-by-hop, routing and destination options may come before TCP or UDP.
-        while (next == 0 || next == 43 || next == 60) {
-            if (at + 2 > total) return skip("bad IPv6 headers");
-            const std::size_t length = (std::size_t{ip[at + 1]} + 1) * 8;
-            next = ip[at];
-            at += length;
-            if (at > total) return skip("bad IPv6 headers");
-        }
-        if (next == 44) return skip("IP fragments (not reassembled)");
-        return transport_payload(next, ip.subspan(at, total - at));
-    }
-    return skip("packets that are not IPv4 or IPv6");
-}
-
-Extracted ether_payload(std::uint16_t type, Bytes rest) {
-    if (type == 0x0800 || type == 0x86DD) return ip_payload(rest);
-    return skip("packets that are not IP (ARP and the like)");
-}
-
-Result<Extracted> exported_pdu_payload(Bytes p, std::uint64_t number) {
-    std::size_t at = 0;
-    std::string_view name;
-    std::uint32_t src = 0;
-    std::uint32_t dst = 0;
-    Nanos duration = kNoTime;
-    bool estimated = false;
-    for (;;) {
-        if (at + 4 > p.size()) {
-            return Error{fmt::format("packet {}: exported-PDU tags without an end tag", number)};
-        }
-        const std::uint16_t tag = be16(p, at);
-        const std::size_t length = be16(p, at + 2);
-        at += 4;
-        if (at + length > p.size()) {
-            return Error{fmt::format("packet {}: exported-PDU tag {} runs past the packet end",
-                                     number, tag)};
-        }
-        const Bytes value = p.subspan(at, length);
-        at += length;
-        if (tag == kTagEndOfOpt) break;
-        if (tag == kTagDissectorName || tag == kTagHeuristicName) {
-            name = std::string_view(reinterpret_cast<const char*>(value.data()), value.size());
-            name = name.substr(0, name.find_last_not_of('\0') + 1);  // the padding
-        } else if (tag == kTagSrcPort && length >= 4) {
-            src = be32(value, 0);
-        } else if (tag == kTagDstPort && length >= 4) {
-            dst = be32(value, 0);
-        } else if (tag == kTagFrameTiming && length == 8) {
-            const std::uint64_t timing = (std::uint64_t{be32(value, 0)} << 32U) | be32(value, 4);
-            const std::uint64_t ns = timing & ~kTimeEstimated;
-            // Longer than any frame at any rate (256 bytes at 50 baud take 57 s): not ours.
-            if (ns <= std::uint64_t{60} * kNanosPerSecond) {
-                duration = static_cast<Nanos>(ns);
-                estimated = (timing & kTimeEstimated) != 0;
-            }
-        }
-    }
-    // "mbrtu" (over TCP) and "mbrtu_udp" hold whole RTU frames. "modbus" and "mbtcp"
-    // hold PDUs without address and CRC, which are not RTU frames.
-    if (!name.starts_with("mbrtu")) {
-        return skip(
-            fmt::format("exported PDUs for another dissector ({})", detail::quote_token(name)));
-    }
-    if (at == p.size()) return skip("exported PDUs without data");
-    return Extracted{p.subspan(at), channel_for_ports(src, dst), {}, duration, estimated};
-}
-
-// The frame in one packet of link type `dlt`.
-Result<Extracted> read_packet(int dlt, Bytes p, std::uint64_t number) {
-    if (dlt == kLinktypeUpperPdu) return exported_pdu_payload(p, number);
-    if (dlt == kLinktypeRtacSerial) {
-        // The event type says whether the RTAC port sent or received the bytes, which is
-        // not whether the master or a slave did: the port may be either. No channel.
-        if (p.size() <= kRtacHeaderBytes) return skip("RTAC serial events without data");
-        return Extracted{p.subspan(kRtacHeaderBytes), {}, {}};
-    }
-    if (dlt >= kDltUser0 && dlt <= kDltUser15) {
-        if (p.empty()) return skip("empty packets");
-        return Extracted{p, {}, {}};
-    }
-    switch (dlt) {
-        case kDltEthernet: {
-            if (p.size() < 14) return skip("packets too short for Ethernet");
-            std::size_t at = 12;
-            std::uint16_t type = be16(p, at);
-            // VLAN tags (802.1Q, 802.1ad, old QinQ).
-            while ((type == 0x8100 || type == 0x88A8 || type == 0x9100) && at + 6 <= p.size()) {
-                at += 4;
-                type = be16(p, at);
-            }
-            return ether_payload(type, p.subspan(at + 2));
-        }
-        case kDltLinuxSll:
-            if (p.size() < 16) return skip("packets too short for Linux cooked headers");
-            return ether_payload(be16(p, 14), p.subspan(16));
-        case kDltLinuxSll2:
-            if (p.size() < 20) return skip("packets too short for Linux cooked headers");
-            return ether_payload(be16(p, 0), p.subspan(20));
-        case kDltNull:
-        case kDltLoop:
-            // A 4-byte address family in either byte order; the IP version says it all.
-            if (p.size() < 4) return skip("packets too short for loopback headers");
-            return ip_payload(p.subspan(4));
-        default:
-            return ip_payload(p);
-    }
-}
-
-// The bytes format detection took from a pipe, then the rest of the pipe.
-struct ChainCookie {
+// The bytes format detection took from a pipe, then the rest of the pipe. Shared by the
+// stream libpcap reads and the one that reads the file again: the pipe is read once.
+struct Chain {
     std::string head;
     std::size_t pos = 0;
     std::FILE* rest = nullptr;
     bool close_rest = false;
+    // While libpcap has not read its first packet: the bytes read from `rest`, to be read
+    // again. Given up past kMaxKeptForRereading.
+    bool keeping = true;
+    std::string kept;
+    Chain(std::string head_, std::FILE* rest_, bool close_rest_)
+        : head(std::move(head_)), rest(rest_), close_rest(close_rest_) {}
+    ~Chain() {
+        if (close_rest && rest != nullptr) std::fclose(rest);
+    }
+    Chain(const Chain&) = delete;
+    Chain& operator=(const Chain&) = delete;
 };
 
 ssize_t chain_read(void* cookie, char* buf, std::size_t size) {
-    auto* c = static_cast<ChainCookie*>(cookie);
-    if (c->pos < c->head.size()) {
-        const std::size_t n = std::min(size, c->head.size() - c->pos);
+    Chain& c = **static_cast<std::shared_ptr<Chain>*>(cookie);
+    if (c.pos < c.head.size()) {
+        const std::size_t n = std::min(size, c.head.size() - c.pos);
         // Binary bytes, not a C string: no terminator belongs here.
         // NOLINTNEXTLINE(bugprone-not-null-terminated-result)
-        std::memcpy(buf, c->head.data() + c->pos, n);
-        c->pos += n;
+        std::memcpy(buf, c.head.data() + c.pos, n);
+        c.pos += n;
         return static_cast<ssize_t>(n);
     }
-    if (c->rest == nullptr) return 0;
-    const std::size_t n = std::fread(buf, 1, size, c->rest);
-    if (n == 0 && std::ferror(c->rest) != 0) return -1;
+    if (c.rest == nullptr) return 0;
+    const std::size_t n = std::fread(buf, 1, size, c.rest);
+    if (n == 0 && std::ferror(c.rest) != 0) return -1;
+    if (c.keeping) {
+        if (c.kept.size() + n <= kMaxKeptForRereading) {
+            c.kept.append(buf, n);
+        } else {
+            c.keeping = false;
+            c.kept = std::string();
+        }
+    }
     return static_cast<ssize_t>(n);
 }
 
 int chain_close(void* cookie) {
-    auto* c = static_cast<ChainCookie*>(cookie);
-    int rc = 0;
-    if (c->close_rest && c->rest != nullptr) rc = std::fclose(c->rest);
-    delete c;
-    return rc;
+    delete static_cast<std::shared_ptr<Chain>*>(cookie);
+    return 0;
+}
+
+Result<std::FILE*> open_chain(std::shared_ptr<Chain> chain, const std::string& name) {
+    auto* cookie = new std::shared_ptr<Chain>(std::move(chain));
+    const cookie_io_functions_t io{chain_read, nullptr, nullptr, chain_close};
+    std::FILE* stream = fopencookie(cookie, "rb", io);
+    if (stream == nullptr) {
+        const int err = errno;
+        delete cookie;
+        return Error{fmt::format("cannot read: {}", std::strerror(err)), name};
+    }
+    return stream;
+}
+
+// How a pcapng file is read again from its start, when libpcap refuses it: a file by a
+// descriptor of its own, a pipe through the bytes kept of it. Whether it is pcapng is
+// asked of its first bytes then (a pipe's head may be too short to tell).
+class Rereading {
+  public:
+    explicit Rereading(int fd) : fd_(fd) {}
+    explicit Rereading(std::shared_ptr<Chain> chain) : chain_(std::move(chain)) {}
+    ~Rereading() {
+        if (fd_ >= 0) ::close(fd_);
+    }
+    Rereading(const Rereading&) = delete;
+    Rereading& operator=(const Rereading&) = delete;
+
+    // libpcap has read its first packet: a pipe's bytes are no longer kept (a file's
+    // can always be read again).
+    void first_packet_read() {
+        if (chain_ && chain_->keeping) {
+            chain_->keeping = false;
+            chain_->kept = std::string();
+        }
+    }
+    // The pcapng file from its start, or null when it is no pcapng or that is no longer
+    // possible. Once only.
+    std::FILE* reopen() {
+        if (fd_ >= 0) {
+            std::array<char, 4> magic{};
+            if (::pread(fd_, magic.data(), magic.size(), 0) != 4 ||
+                !starts_like_pcapng(std::string_view(magic.data(), magic.size())) ||
+                ::lseek(fd_, 0, SEEK_SET) != 0) {
+                return nullptr;
+            }
+            std::FILE* file = ::fdopen(fd_, "rb");
+            if (file != nullptr) fd_ = -1;
+            return file;
+        }
+        // A stream in memory (no rest) can always be read again.
+        if (!chain_ || (chain_->rest != nullptr && !chain_->keeping)) return nullptr;
+        if (!starts_like_pcapng(chain_->head + chain_->kept)) return nullptr;
+        // Everything read so far is the head and the bytes kept; the pipe goes on after.
+        auto again = std::make_shared<Chain>(chain_->head + chain_->kept, chain_->rest,
+                                             chain_->close_rest);
+        again->keeping = false;
+        chain_->close_rest = false;
+        chain_->keeping = false;
+        chain_.reset();
+        Result<std::FILE*> stream = open_chain(std::move(again), {});
+        return stream ? *stream : nullptr;
+    }
+
+  private:
+    int fd_ = -1;
+    std::shared_ptr<Chain> chain_;
+};
+
+// Packets from libpcap.
+class LibpcapReader final : public PacketReader {
+  public:
+    // `read_buffer` is the stream's stdio buffer: kept until pcap_close has closed it.
+    LibpcapReader(pcap_t* pcap, std::unique_ptr<char[]> read_buffer)
+        : pcap_(pcap), read_buffer_(std::move(read_buffer)), link_type_(pcap_datalink(pcap)) {}
+    ~LibpcapReader() override { pcap_close(pcap_); }
+    LibpcapReader(const LibpcapReader&) = delete;
+    LibpcapReader& operator=(const LibpcapReader&) = delete;
+
+    Result<bool> next(Packet& out) override {
+        pcap_pkthdr* header = nullptr;
+        const u_char* data = nullptr;
+        const int rc = pcap_next_ex(pcap_, &header, &data);
+        if (rc == PCAP_ERROR_BREAK) return false;  // end of file
+        if (rc != 1) {
+            const std::string why = pcap_geterr(pcap_);
+            // A file cut off in its last packet (a capture killed or still being written)
+            // reads as far as it goes, as tshark reads it; a broken one stops here.
+            if (why.starts_with("truncated")) {
+                cut_off_ = true;
+                return false;
+            }
+            return Error{fmt::format("packet {}: {}", packets_ + 1, why)};
+        }
+        ++packets_;
+        // The file was opened with nanosecond precision: tv_usec holds nanoseconds.
+        // pcapng timestamps are 64 bits in a unit the file chooses: the seconds libpcap
+        // derives need not fit in 64-bit nanoseconds, so the conversion checks for
+        // overflow. A time beyond kMaxTime is an error, as in a capture v1 text.
+        Nanos time = 0;
+        if (__builtin_mul_overflow(static_cast<Nanos>(header->ts.tv_sec), kNanosPerSecond,
+                                   &time) ||
+            __builtin_add_overflow(time, static_cast<Nanos>(header->ts.tv_usec), &time) ||
+            time > kMaxTime || time < -kMaxTime) {
+            return Error{fmt::format("packet {}: timestamp {} s out of range", packets_,
+                                     static_cast<std::int64_t>(header->ts.tv_sec))};
+        }
+        out.link_type = link_type_;
+        out.time = time;
+        out.data = std::span<const std::uint8_t>(data, header->caplen);
+        out.length = std::max(header->len, header->caplen);
+        return true;
+    }
+    [[nodiscard]] bool cut_off() const override { return cut_off_; }
+
+  private:
+    pcap_t* pcap_;
+    std::unique_ptr<char[]> read_buffer_;
+    int link_type_;
+    std::uint64_t packets_ = 0;
+    bool cut_off_ = false;
+};
+
+std::string link_types_refused(const std::vector<int>& link_types) {
+    std::string list;
+    for (const int link_type : link_types) {
+        list += fmt::format("{}{}", list.empty() ? "" : ", ", link_type);
+    }
+    return fmt::format("{} {} {} not one rtuscope reads (252, 250, 147-162, Ethernet/IP with "
+                       "Modbus RTU over TCP/UDP)",
+                       link_types.size() == 1 ? "link type" : "link types", list,
+                       link_types.size() == 1 ? "is" : "are");
+}
+
+// rtuscope's own reader over `file`, up to its first packet; an Error when the file is no
+// pcapng it can read or none of the interfaces described before the first packet
+// carries RTU.
+Result<std::unique_ptr<PcapngReader>> open_own_reader(std::FILE* file) {
+    auto reader = std::make_unique<PcapngReader>(file);
+    if (Status opened = reader->open(); !opened) return opened.error();
+    const std::vector<int> link_types = reader->link_types();
+    if (!link_types.empty() &&
+        std::none_of(link_types.begin(), link_types.end(), pcap::supported_link_type)) {
+        return Error{link_types_refused(link_types)};
+    }
+    return reader;
 }
 
 class PcapSource final : public ChunkSource {
   public:
-    // `read_buffer` is the stream's stdio buffer: kept until pcap_close has closed it.
-    PcapSource(pcap_t* pcap, std::unique_ptr<char[]> read_buffer, std::string name)
-        : pcap_(pcap), read_buffer_(std::move(read_buffer)), dlt_(pcap_datalink(pcap)) {
+    PcapSource(std::unique_ptr<PacketReader> reader, std::unique_ptr<Rereading> rereading,
+               std::string name)
+        : reader_(std::move(reader)), rereading_(std::move(rereading)) {
         info_.name = std::move(name);
         info_.format = "pcap";
         info_.timed = true;
         info_.chunk_time_is_start = true;  // rtuscope and Wireshark stamp frame starts
         // Unix time, unless the numbers are too small for it: a pcap written from a
-        // capture with relative times. The first packet tells.
+        // capture with relative times. The first chunk tells.
         first_ = read_chunk(pending_);
         if (first_ && *first_) info_.time_base = time_base_of(pending_.time);
     }
-    ~PcapSource() override { pcap_close(pcap_); }
-    PcapSource(const PcapSource&) = delete;
-    PcapSource& operator=(const PcapSource&) = delete;
 
     [[nodiscard]] const SourceInfo& info() const override { return info_; }
 
@@ -306,87 +264,63 @@ class PcapSource final : public ChunkSource {
     }
 
     [[nodiscard]] std::vector<std::string> remarks() const override {
-        std::vector<std::string> out;
-        if (!cut_off_.empty()) out.push_back(cut_off_);
-        for (const auto& [why, count] : skipped_) {
-            out.push_back(fmt::format("skipped {} of {} packets: {}", count, packets_, why));
-        }
-        if (skipped_otherwise_ != 0) {
-            out.push_back(fmt::format("skipped {} of {} packets: other reasons (more than {})",
-                                      skipped_otherwise_, packets_, kMaxSkipReasons));
-        }
-        return out;
+        return chunker_.remarks(reader_ && reader_->cut_off());
     }
 
   private:
-    // The next packet that holds a frame, as a chunk; false at the end of the file.
+    // The next chunk; false at the end of the file.
     Result<bool> read_chunk(Chunk& out) {
         for (;;) {
-            pcap_pkthdr* header = nullptr;
-            const u_char* data = nullptr;
-            const int rc = pcap_next_ex(pcap_, &header, &data);
-            if (rc == PCAP_ERROR_BREAK) return false;  // end of file
-            if (rc != 1) {
-                const std::string why = pcap_geterr(pcap_);
-                // A file cut off in its last packet (a capture killed or still being written)
-                // reads as far as it goes, as tshark reads it; a broken one stops here.
-                if (why.starts_with("truncated")) {
-                    cut_off_ = fmt::format(
-                        "the file ends inside packet {} (cut off before it was complete); "
-                        "{} packets read",
-                        packets_ + 1, packets_);
-                    return false;
-                }
-                return Error{fmt::format("packet {}: {}", packets_ + 1, why), info_.name};
+            if (chunker_.pop(out)) return true;
+            if (ended_ || !reader_) return false;
+            Result<bool> got = reader_->next(packet_);
+            if (!got) {
+                if (read_on_with_own_reader()) continue;
+                ended_ = true;
+                return Error{got.error().message, info_.name};
             }
-            ++packets_;
-            Result<Extracted> got = read_packet(dlt_, Bytes(data, header->caplen), packets_);
-            if (!got) return Error{got.error().message, info_.name};
-            if (!got->skipped.empty()) {
-                if (skipped_.size() < kMaxSkipReasons || skipped_.contains(got->skipped)) {
-                    ++skipped_[got->skipped];
-                } else {
-                    ++skipped_otherwise_;
-                }
+            if (!*got) {
+                chunker_.finish();
+                ended_ = true;
                 continue;
             }
-            // The file was opened with nanosecond precision: tv_usec holds nanoseconds.
-            // pcapng timestamps are 64 bits in a unit the file chooses: the seconds libpcap
-            // derives need not fit in 64-bit nanoseconds, so the conversion checks for
-            // overflow. A time beyond kMaxTime is an error, as in a capture v1 text.
-            Nanos time = 0;
-            if (__builtin_mul_overflow(static_cast<Nanos>(header->ts.tv_sec), kNanosPerSecond,
-                                       &time) ||
-                __builtin_add_overflow(time, static_cast<Nanos>(header->ts.tv_usec), &time) ||
-                time > kMaxTime || time < -kMaxTime) {
-                return Error{fmt::format("packet {}: timestamp {} s out of range", packets_,
-                                         static_cast<std::int64_t>(header->ts.tv_sec)),
-                             info_.name};
-            }
-            out.time = time;
-            if (out.channel != got->channel) out.channel = got->channel;
-            out.bytes.assign(got->frame.begin(), got->frame.end());
-            out.source_line = 0;
-            out.char_errors.clear();
-            out.whole_frame = true;  // one packet, one frame
-            out.duration = got->duration;
-            out.time_estimated = got->time_estimated;
-            return true;
+            ++packets_;
+            if (rereading_) rereading_->first_packet_read();
+            Status added = chunker_.add(packet_, packets_);
+            if (!added) return Error{added.error().message, info_.name};
         }
     }
 
-    pcap_t* pcap_;
-    std::unique_ptr<char[]> read_buffer_;
-    std::string cut_off_;  // the remark for a file cut off in its last packet
-    int dlt_;
-    SourceInfo info_;
-    // Reasons are counted apart up to a bound: each dissector name is one, and a crafted
-    // file could hold millions of them.
-    static constexpr std::size_t kMaxSkipReasons = 32;
+    // libpcap refused the rest of a pcapng file (an interface of another link type or
+    // snap length): the file again from its start through rtuscope's own reader, past
+    // the packets libpcap gave.
+    bool read_on_with_own_reader() {
+        if (!rereading_) return false;
+        // libpcap's stream goes first: closing it may move the file's offset, which a
+        // duplicate descriptor shares.
+        reader_.reset();
+        std::FILE* again = rereading_->reopen();
+        rereading_.reset();
+        if (again == nullptr) return false;
+        auto reader = std::make_unique<PcapngReader>(again);
+        for (std::uint64_t i = 0; i < packets_; ++i) {
+            Result<bool> got = reader->next(packet_);
+            if (!got || !*got) return false;
+        }
+        reader_ = std::move(reader);
+        return true;
+    }
+
+    std::unique_ptr<PacketReader> reader_;
+    // Set while libpcap reads a file it may yet refuse (a pcapng file with an interface of
+    // another link type further on).
+    std::unique_ptr<Rereading> rereading_;
+    PacketChunker chunker_;
+    Packet packet_;
     std::uint64_t packets_ = 0;
-    std::map<std::string, std::uint64_t> skipped_;
-    std::uint64_t skipped_otherwise_ = 0;  // for reasons beyond kMaxSkipReasons
-    // The first packet, read ahead for the time base, and what reading it gave.
+    bool ended_ = false;
+    SourceInfo info_;
+    // The first chunk, read ahead for the time base, and what reading it gave.
     Chunk pending_;
     std::optional<Result<bool>> first_;
 };
@@ -416,23 +350,28 @@ bool looks_like_pcap(std::string_view head) {
 
 Result<std::unique_ptr<ChunkSource>> pcap_source_from_stream(std::string head, std::FILE* rest,
                                                              bool close_rest, std::string name) {
+    std::unique_ptr<Rereading> rereading;
     // A file of ours whose head was read from its own start (it stands just past the head)
     // and that can go back there is libpcap's to read as it is: through the chain below,
     // every packet's reads would take glibc's slow generic path.
     std::FILE* stream = nullptr;
+    // A descriptor of its own reads it again if libpcap refuses it.
     const long position = rest != nullptr ? std::ftell(rest) : -1;
-    if (close_rest && position >= 0 && static_cast<std::size_t>(position) == head.size() &&
-        std::fseek(rest, 0, SEEK_SET) == 0) {
+    const int fd = close_rest && position >= 0 &&
+                           static_cast<std::size_t>(position) == head.size() &&
+                           ::fileno(rest) >= 0
+                       ? ::fcntl(::fileno(rest), F_DUPFD_CLOEXEC, 0)
+                       : -1;
+    if (fd >= 0 && std::fseek(rest, 0, SEEK_SET) == 0) {
         stream = rest;
+        rereading = std::make_unique<Rereading>(fd);
     } else {
-        auto* cookie = new ChainCookie{std::move(head), 0, rest, close_rest};
-        const cookie_io_functions_t io{chain_read, nullptr, nullptr, chain_close};
-        stream = fopencookie(cookie, "rb", io);
-        if (stream == nullptr) {
-            const int err = errno;
-            chain_close(cookie);
-            return Error{fmt::format("cannot read: {}", std::strerror(err)), name};
-        }
+        if (fd >= 0) ::close(fd);
+        auto chain = std::make_shared<Chain>(std::move(head), rest, close_rest);
+        Result<std::FILE*> opened = open_chain(chain, name);
+        if (!opened) return opened.error();
+        stream = *opened;
+        rereading = std::make_unique<Rereading>(std::move(chain));
     }
     // libpcap reads each packet with two small freads: with stdio's own 4 KiB buffer, a
     // read() every ~60 packets of ours. Set before libpcap's first read; the file taken
@@ -441,25 +380,52 @@ Result<std::unique_ptr<ChunkSource>> pcap_source_from_stream(std::string head, s
     char errbuf[PCAP_ERRBUF_SIZE] = {};
     pcap_t* pcap =
         pcap_fopen_offline_with_tstamp_precision(stream, PCAP_TSTAMP_PRECISION_NANO, errbuf);
-    if (pcap == nullptr) {
-        std::fclose(stream);  // not taken over on failure
-        return Error{fmt::format("not a pcap or pcapng file rtuscope can read: {}", errbuf), name};
+    const std::string refused =
+        pcap == nullptr
+            ? fmt::format("not a pcap or pcapng file rtuscope can read: {}", errbuf)
+            : (pcap::supported_link_type(pcap_datalink(pcap))
+                   ? std::string()
+                   : link_types_refused({pcap_datalink(pcap)}));
+    if (refused.empty()) {
+        return std::unique_ptr<ChunkSource>(std::make_unique<PcapSource>(
+            std::make_unique<LibpcapReader>(pcap, std::move(read_buffer)), std::move(rereading),
+            std::move(name)));
     }
-    const int dlt = pcap_datalink(pcap);
-    if (!supported_link_type(dlt)) {
+    // libpcap refuses the file, or reads only an interface that carries no RTU: a pcapng
+    // file may hold others.
+    const bool opened = pcap != nullptr;
+    if (opened) {
         pcap_close(pcap);
-        return Error{fmt::format("link type {} is not one rtuscope reads (252, 250, 147-162, "
-                                 "Ethernet/IP with Modbus RTU over TCP/UDP)",
-                                 dlt),
-                     name};
+    } else {
+        std::fclose(stream);  // not taken over on failure
+    }
+    std::FILE* again = rereading ? rereading->reopen() : nullptr;
+    if (again == nullptr) return Error{refused, name};
+    Result<std::unique_ptr<PcapngReader>> own = open_own_reader(again);
+    if (!own) {
+        // The link types the own reader found are what the user needs to know; any other
+        // complaint of a file libpcap refused too is libpcap's.
+        return Error{opened ? own.error().message : refused, name};
     }
     return std::unique_ptr<ChunkSource>(
-        std::make_unique<PcapSource>(pcap, std::move(read_buffer), std::move(name)));
+        std::make_unique<PcapSource>(std::move(*own), nullptr, std::move(name)));
 }
 
 Result<std::unique_ptr<ChunkSource>> pcap_source_from_memory(std::string content,
                                                              std::string name) {
     return pcap_source_from_stream(std::move(content), nullptr, false, std::move(name));
+}
+
+Result<std::unique_ptr<ChunkSource>> pcapng_source_from_memory(std::string content,
+                                                               std::string name) {
+    auto chain = std::make_shared<Chain>(std::move(content), nullptr, false);
+    chain->keeping = false;
+    Result<std::FILE*> stream = open_chain(std::move(chain), name);
+    if (!stream) return stream.error();
+    Result<std::unique_ptr<PcapngReader>> own = open_own_reader(*stream);
+    if (!own) return Error{own.error().message, name};
+    return std::unique_ptr<ChunkSource>(
+        std::make_unique<PcapSource>(std::move(*own), nullptr, std::move(name)));
 }
 
 Result<std::unique_ptr<ChunkSource>> open_pcap_source(const std::string& path) {

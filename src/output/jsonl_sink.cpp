@@ -157,7 +157,11 @@ class JsonlSink final : public RecordSink {
             }
             line += "]}"sv;
         }
-        line += "]}\n"sv;
+        line += "],\"transport\":\""sv;
+        line += to_string(r.frame.transport);
+        line += "\",\"transaction\":"sv;
+        append_number_or_null(r.frame.transport == Transport::tcp, r.frame.mbap.transaction);
+        line += "}\n"sv;
         out_.record_done();
     }
 

@@ -105,13 +105,21 @@ Nanos packet_time(const Record& record) {
 }  // namespace
 
 void append_pcap_packet(std::vector<std::uint8_t>& out, const Record& record) {
-    static constexpr std::string_view kName = "mbrtu";
+    // Modbus RTU for Wireshark's mbrtu dissector; Modbus/TCP, its MBAP header put back in
+    // front of the unit id, for mbtcp.
+    const bool tcp = record.frame.transport == Transport::tcp;
+    const std::string_view name = tcp ? "mbtcp" : "mbrtu";
     put_tag(out, kTagDissectorName,
-            std::span(reinterpret_cast<const std::uint8_t*>(kName.data()), kName.size()));
+            std::span(reinterpret_cast<const std::uint8_t*>(name.data()), name.size()));
     // Neither port 502 when the direction is unclear: Wireshark then guesses from the
     // frame's shape, as rtuscope did.
-    std::uint16_t src = kMasterPort;
-    std::uint16_t dst = kMasterPort;
+    // Modbus/TCP: the client's port tells the connections apart, whose transaction ids
+    // count each on its own.
+    constexpr std::uint32_t kClientPorts = 16384;  // 49152-65535
+    const auto client = static_cast<std::uint16_t>(
+        kMasterPort + (tcp ? record.frame.mbap.connection % kClientPorts : 0));
+    std::uint16_t src = client;
+    std::uint16_t dst = client;
     switch (direction_of(record)) {
         case Direction::to_slave:
             dst = kModbusPort;
@@ -135,6 +143,11 @@ void append_pcap_packet(std::vector<std::uint8_t>& out, const Record& record) {
         put32be(out, static_cast<std::uint32_t>(timing));
     }
     put_tag(out, kTagEndOfOpt, {});
+    if (tcp) {
+        put16be(out, record.frame.mbap.transaction);
+        put16be(out, 0);  // protocol id: Modbus
+        put16be(out, static_cast<std::uint16_t>(record.frame.bytes.size()));
+    }
     out.insert(out.end(), record.frame.bytes.begin(), record.frame.bytes.end());
 }
 
@@ -161,9 +174,10 @@ void PcapSink::write(const void* data, std::size_t size) {
 void PcapSink::begin(const SessionInfo& /*session*/) {}
 
 void PcapSink::record(const Record& record) {
-    // Frames only: noise is none, nor the part of one a stop cut off.
+    // Frames only: noise is none, nor the part of one a stop or a capture's snap length
+    // cut off.
     if (record.kind == Kind::noise || !record.frame.is_frame() ||
-        record.notes.has(note_id::cut_by_stop)) {
+        record.notes.has(note_id::cut_by_stop) || record.notes.has(note_id::cut_by_snaplen)) {
         return;
     }
     packet_.clear();

@@ -144,6 +144,11 @@ class TextSink final : public RecordSink {
         line += summary;
         const std::size_t tail_at = line.size();
         if (r.kind == Kind::broadcast) line += "  (broadcast, no answer expected)"sv;
+        // Modbus/TCP: the transaction id, as Wireshark's "Trans:", pairs its frames.
+        if (framed && r.frame.transport == Transport::tcp) {
+            line += "  tid "sv;
+            append_uint(line, r.frame.mbap.transaction);
+        }
         if (has_time(r.latency)) {
             append_with(line, kMaxMillisChars + kMaxUintChars + 16, [&](char* p) {
                 p = write_text(p, "  ");

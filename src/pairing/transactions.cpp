@@ -99,16 +99,80 @@ void Transactions::give_up_on_request(std::string_view why) {
     release();
 }
 
-// Everything before the awaited request, or everything when none is awaited, is final.
+// Everything before the oldest awaited request, or everything when none is awaited, is
+// final.
 void Transactions::release() {
-    const std::size_t keep_from = awaiting_ ? *awaiting_ : count_;
+    std::size_t keep_from = awaiting_ ? *awaiting_ : count_;
+    for (const TcpAwaited& awaited : tcp_awaiting_) keep_from = std::min(keep_from, awaited.index);
     for (std::size_t i = 0; i < keep_from; ++i) {
         emit_(std::move(slots_[head_]));
         give_back_buffers(slots_[head_], head_);
         ++head_;
         --count_;
     }
-    if (awaiting_) awaiting_ = 0;
+    if (awaiting_) *awaiting_ -= keep_from;
+    for (TcpAwaited& awaited : tcp_awaiting_) awaited.index -= keep_from;
+}
+
+void Transactions::give_up_on_tcp_request(std::size_t i, std::string_view why) {
+    held(tcp_awaiting_[i].index).notes.add(note_id::no_answer, std::string(why));
+    tcp_awaiting_.erase(tcp_awaiting_.begin() + static_cast<std::ptrdiff_t>(i));
+}
+
+// Modbus/TCP: a request awaits the answer with its transaction id on its connection,
+// whatever else comes between; its direction (the port) says which is which, else the
+// transaction id does.
+void Transactions::push_modbus_tcp(Record& record) {
+    const Frame& f = record.frame;
+    const auto awaited = std::find_if(
+        tcp_awaiting_.begin(), tcp_awaiting_.end(), [&](const TcpAwaited& a) {
+            return a.connection == f.mbap.connection && a.transaction == f.mbap.transaction;
+        });
+    const bool is_answer =
+        f.cls == RecordClass::frame &&
+        (f.reading == Reading::response || f.reading == Reading::exception ||
+         (f.reading == Reading::unknown && awaited != tcp_awaiting_.end()));
+    if (f.cls != RecordClass::frame) {
+        record.kind = Kind::invalid;
+    } else if (is_answer) {
+        record.kind = (f.function() & 0x80U) != 0 ? Kind::exception : Kind::response;
+        if (awaited != tcp_awaiting_.end()) {
+            const Record& request = held(awaited->index);
+            record.request_number = request.number;
+            record.request = request.frame.bytes;
+            if (has_time(f.start) && has_time(awaited->end)) record.latency = f.start - awaited->end;
+            if (request.frame.slave() != f.slave() ||
+                request.frame.function() != (f.function() & 0x7FU)) {
+                record.notes.add(note_id::request_mismatch,
+                                 fmt::format("request was unit {} function {}",
+                                             request.frame.slave(), request.frame.function()));
+            }
+            tcp_awaiting_.erase(awaited);
+        } else {
+            record.notes.add(note_id::unsolicited, "answer with no request");
+        }
+    } else {
+        record.kind = Kind::request;
+        if (awaited != tcp_awaiting_.end()) {
+            give_up_on_tcp_request(static_cast<std::size_t>(awaited - tcp_awaiting_.begin()),
+                                   "no answer before its transaction id came again");
+        }
+        if (tcp_awaiting_.size() >= kMaxTcpAwaiting) {
+            give_up_on_tcp_request(
+                0, fmt::format("no answer while {} later requests awaited theirs", kMaxTcpAwaiting));
+        }
+        record.awaits_answer = true;
+        tcp_awaiting_.push_back({f.mbap.connection, f.mbap.transaction, count_, f.end});
+    }
+    ++count_;
+    // Held records are bounded, behind a serial request too.
+    while (!tcp_awaiting_.empty() && count_ - tcp_awaiting_.front().index > kMaxFramesAwaiting) {
+        give_up_on_tcp_request(0, fmt::format("no answer within {} frames", kMaxFramesAwaiting));
+    }
+    if (awaiting_ && count_ - *awaiting_ > kMaxFramesAwaiting) {
+        give_up_on_request(fmt::format("no answer within {} frames", kMaxFramesAwaiting));
+    }
+    release();
 }
 
 Record& Transactions::next_slot() {
@@ -144,6 +208,10 @@ void Transactions::push(Frame& frame) {
 
     // A request that has waited past the timeout by the time this frame starts.
     tick(f.start);
+    if (f.transport == Transport::tcp) {
+        push_modbus_tcp(record);
+        return;
+    }
 
     const bool matches_awaited =
         awaiting_ && f.slave() == awaited_.slave && (f.function() & 0x7FU) == awaited_.function;
@@ -237,11 +305,24 @@ void Transactions::push(Frame& frame) {
 }
 
 void Transactions::tick(Nanos now) {
-    if (awaiting_ && has_time(now) && has_time(awaited_end_) &&
-        now - awaited_end_ > options_.timeout) {
-        give_up_on_request(
-            fmt::format("no answer within {:g} s", static_cast<double>(options_.timeout) / 1e9));
+    if (!has_time(now)) return;
+    const auto within = [&] {
+        return fmt::format("no answer within {:g} s", static_cast<double>(options_.timeout) / 1e9);
+    };
+    if (awaiting_ && has_time(awaited_end_) && now - awaited_end_ > options_.timeout) {
+        give_up_on_request(within());
     }
+    bool gave_up = false;
+    for (std::size_t i = 0; i < tcp_awaiting_.size();) {
+        const Nanos end = tcp_awaiting_[i].end;
+        if (has_time(end) && now - end > options_.timeout) {
+            give_up_on_tcp_request(i, within());
+            gave_up = true;
+        } else {
+            ++i;
+        }
+    }
+    if (gave_up) release();
 }
 
 void Transactions::finish(bool stopped) {
@@ -252,6 +333,13 @@ void Transactions::finish(bool stopped) {
                        "the run stopped before an answer could come");
         awaiting_.reset();
     }
+    for (const TcpAwaited& awaited : tcp_awaiting_) {
+        held(awaited.index)
+            .notes.add(stopped ? note_id::stopped_before_answer : note_id::no_answer,
+                       stopped ? "the run stopped before an answer could come"
+                               : "no answer before the end of the input");
+    }
+    tcp_awaiting_.clear();
     give_up_on_request("no answer before the end of the input");
     release();
 }

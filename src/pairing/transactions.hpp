@@ -1,7 +1,9 @@
 // Stage 3, transactions: decides what each frame is (request, answer, exception,
 // broadcast), pairs each answer with its request, measures the turnaround, and reports
 // requests that got no answer. Records leave in stream order, numbered from 1; a request
-// is held back until its fate is known (answered, or not within the timeout).
+// is held back until its fate is known (answered, or not within the timeout). On a serial
+// line one request at a time awaits its answer; Modbus/TCP requests await theirs by
+// transaction id, several at once.
 #pragma once
 
 #include <cstdint>
@@ -94,6 +96,10 @@ class Transactions : public AnswerExpectation {
     // Called for every request, usually with nothing awaited: `why` becomes a string
     // only when a note is written.
     void give_up_on_request(std::string_view why);
+    // A Modbus/TCP frame, already in the slot after the held records.
+    void push_modbus_tcp(Record& record);
+    // The i-th awaited Modbus/TCP request is given up on.
+    void give_up_on_tcp_request(std::size_t i, std::string_view why);
     void release();
     // The i-th held record, oldest first (i <= count_).
     Record& held(std::size_t i) { return slots_[head_ + i]; }
@@ -122,6 +128,16 @@ class Transactions : public AnswerExpectation {
         std::uint64_t answer_number = 0;
     };
     std::optional<Answered> answered_;
+    // Modbus/TCP requests awaiting their answers, oldest first.
+    struct TcpAwaited {
+        std::uint32_t connection = 0;
+        std::uint16_t transaction = 0;
+        std::size_t index = 0;  // of the held records
+        Nanos end = kNoTime;
+    };
+    std::vector<TcpAwaited> tcp_awaiting_;
+    // More requests than this awaiting at once: the oldest is given up on.
+    static constexpr std::size_t kMaxTcpAwaiting = 256;
 };
 
 }  // namespace rtuscope

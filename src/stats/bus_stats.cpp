@@ -32,8 +32,13 @@ void BusStats::add(const Record& record) {
     if (has_time(f.end) && (!has_time(bus_.last_end) || f.end > bus_.last_end)) {
         bus_.last_end = f.end;
     }
-    // What a stop cut short was on the line, but is no fault of the bus's.
+    // What a stop or a capture's snap length cut short was on the line, but is no fault
+    // of the bus's.
     if (record.notes.has(note_id::cut_by_stop)) return;
+    if (record.notes.has(note_id::cut_by_snaplen)) {
+        count_cut_answer(record);
+        return;
+    }
     if (record.kind == Kind::noise) {
         ++bus_.noise_runs;
         bus_.noise_bytes += f.bytes.size();
@@ -84,6 +89,25 @@ void BusStats::count_poll(const Key& key, const Record& record) {
         if (has_time(p.last_start)) add_duration(p.cycles, f.start - p.last_start);
         p.last_start = f.start;
     }
+}
+
+void BusStats::count_cut_answer(const Record& record) {
+    // The bus answered, the capture kept the start of it: its request has its outcome, an
+    // answer or an exception by the function code, neither broken nor missing.
+    const Frame& f = record.frame;
+    if (record.request_number == 0 || f.bytes.size() < 2 ||
+        record.notes.has(note_id::duplicate_answer)) {
+        return;
+    }
+    FunctionStats& s = functions_[{f.slave(), static_cast<std::uint8_t>(f.function() & 0x7FU)}];
+    if (s.function == nullptr) s.function = record.decoded.function;
+    if ((f.function() & 0x80U) != 0) {
+        ++s.exceptions;
+        if (f.bytes.size() >= 3) count_exception_code(s, f.bytes[2]);
+    } else {
+        ++s.answers;
+    }
+    if (has_time(record.latency)) add_duration(s.turnarounds, record.latency);
 }
 
 void BusStats::count_answer(FunctionStats& s, const Record& record) {

@@ -153,6 +153,8 @@ class BusStats {
   private:
     void count_poll(const Key& key, const Record& record);
     void count_answer(FunctionStats& s, const Record& record);
+    // An answer whose end the capture's snap length cut (frame.cut_by_snaplen).
+    void count_cut_answer(const Record& record);
     PollStats& poll_of(const PollKey& key);
     void forget_rare_polls();
     void add_duration(DurationCounts& counts, Nanos value);
