@@ -42,8 +42,9 @@ int run_decode(const DecodeArgs& args) {
     decoding->options.stop = &g_stop;
     Totals totals;
     const Status status = run_pipeline(**source, decoding->options, *decoding->sink, &totals);
-    // The text output ends with its remarks; the other outputs have no place for them.
-    if (args.output.csv || args.output.values_csv || args.output.jsonl || args.output.stats) {
+    // The text outputs (decode's, stats') end with their remarks; the others have no
+    // place for them.
+    if (args.output.csv || args.output.values_csv || args.output.jsonl) {
         for (const std::string& remark : totals.remarks) {
             fmt::print(stderr, "rtuscope: note: {}: {}\n", args.file, remark);
         }

@@ -26,6 +26,7 @@ void merge_function_stats(FunctionStats& into, const FunctionStats& from) {
 void BusStats::add(const Record& record) {
     const Frame& f = record.frame;
     bus_.bytes += f.bytes.size();
+    if (f.transport == Transport::tcp) bus_.tcp_bytes += f.bytes.size();
     if (has_time(f.start) && (!has_time(bus_.first_start) || f.start < bus_.first_start)) {
         bus_.first_start = f.start;
     }
@@ -236,8 +237,8 @@ std::optional<Nanos> BusStats::duration() const {
 
 std::optional<double> BusStats::utilisation() const {
     const std::optional<Nanos> d = duration();
-    if (!d) return std::nullopt;
-    return 100.0 * static_cast<double>(bus_.bytes) *
+    if (!d || bus_.bytes == bus_.tcp_bytes) return std::nullopt;
+    return 100.0 * static_cast<double>(bus_.bytes - bus_.tcp_bytes) *
            static_cast<double>(session_.line.char_time()) / static_cast<double>(*d);
 }
 

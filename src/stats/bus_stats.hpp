@@ -79,6 +79,9 @@ struct BusFigures {
     Nanos last_end = kNoTime;     // of the last timed record
     std::uint64_t frames = 0;     // records that are not noise
     std::uint64_t bytes = 0;      // every byte on the line, noise included
+    // Of them, bytes of Modbus/TCP frames (unit id and PDU): they took no time on a
+    // serial line, so the utilisation leaves them out.
+    std::uint64_t tcp_bytes = 0;
     std::uint64_t noise_runs = 0;
     std::uint64_t noise_bytes = 0;
     std::uint64_t invalid = 0;  // bad CRC or cut short
@@ -136,7 +139,8 @@ class BusStats {
 
     [[nodiscard]] bool timed() const;
     [[nodiscard]] std::optional<Nanos> duration() const;
-    // Per cent of the time the line carried a character; nullopt without timing.
+    // Per cent of the time the line carried a character; nullopt without timing or
+    // without a byte of a serial line (Modbus/TCP alone).
     [[nodiscard]] std::optional<double> utilisation() const;
     // False when the bytes would take longer than the input lasts: the baud rate is wrong.
     [[nodiscard]] bool utilisation_possible() const {

@@ -199,7 +199,9 @@ std::string_view to_string(BaudOrigin origin) {
 // assumed; and a figure over 100 % is no utilisation but a wrong baud rate.
 std::string utilisation_text(const BusStats& stats) {
     const SessionInfo& session = stats.session();
-    const std::uint64_t bytes = stats.bus().bytes;
+    const std::uint64_t tcp_bytes = stats.bus().tcp_bytes;
+    if (!stats.utilisation()) return "Modbus/TCP alone: no serial line to measure";
+    const std::uint64_t bytes = stats.bus().bytes - tcp_bytes;
     const double percent = *stats.utilisation();
     const std::uint32_t baud = session.line.baud;
     if (!stats.utilisation_possible()) {
@@ -219,6 +221,10 @@ std::string utilisation_text(const BusStats& stats) {
         origin = fmt::format(", at the {} baud the profiles give", baud);
     } else if (session.baud_origin == BaudOrigin::assumed) {
         origin = fmt::format(", at an assumed {} baud", baud);
+    }
+    if (tcp_bytes > 0) {
+        origin += fmt::format("; {} {} of Modbus/TCP left out", tcp_bytes,
+                              plural(tcp_bytes, "byte", "bytes"));
     }
     return fmt::format("utilisation {:.1f} % ({} {} of {:.3f} ms{})", percent, bytes,
                        plural(bytes, "byte", "bytes"),
