@@ -210,7 +210,13 @@ void Framer::push(const Chunk& chunk) {
                     // it: kept, though the line settings end the bytes before it later.
                     gap = kNoTime;
                 } else {
-                    if (start_stamped) last_end += last_end_ - first_start;
+                    if (start_stamped) {
+                        // A log's clock too coarse to place the line (stamped before the
+                        // bytes before it ended): no silence measured, so no turnaround
+                        // made up of zero.
+                        last_end += last_end_ - first_start;
+                        gap = kNoTime;
+                    }
                     first_start = last_end_;
                 }
             }
