@@ -61,9 +61,10 @@ struct Decoded {
     std::optional<Error> error;
 };
 
-Decoded decode(const std::string& content, PipelineOptions options = {}) {
+Decoded decode(const std::string& content, PipelineOptions options = {},
+               const PcapOptions& pcap = {}) {
     Decoded d;
-    auto source = source_from_memory(content, "mem.pcap", InputFormat::automatic);
+    auto source = source_from_memory(content, "mem.pcap", InputFormat::automatic, pcap);
     EXPECT_TRUE(source.ok()) << source.error().to_string();
     if (!source.ok()) return d;
     CollectingSink collect;
@@ -992,6 +993,30 @@ TEST(PcapNotRtu, AnRtuFrameShapedLikeModbusTcpIsRtu) {
     const Decoded out = decode(pcap_file(1, {{kT0, eth_tcp(40000, 502, kRequest, 1)}}));
     ASSERT_EQ(out.records.size(), 1U);
     EXPECT_EQ(out.records[0].kind, Kind::request);
+}
+
+// A serial gateway's port given with --rtu-port: its payloads are Modbus RTU whatever they
+// hold. Told by content, the line noise a gateway forwards is neither RTU nor Modbus/TCP
+// and is skipped, though it was on the bus; given the port, it is noise on the bus, and
+// the port's side is the slave's.
+TEST(PcapNotRtu, ARtuPortTakesPayloadsAsRtuWhateverTheyHold) {
+    const Bytes noise = {0x00, 0xFF, 0x13, 0x37, 0x42, 0x99};
+    const std::string file =
+        pcap_file(1, {{kT0, eth_tcp(4001, 40000, noise, 1)},
+                      {kT0 + 20 * kMs, eth_tcp(40000, 4001, kRequest, 1)},
+                      {kT0 + 40 * kMs, eth_tcp(4001, 40000, kAnswer, 1 + static_cast<std::uint32_t>(noise.size()))}});
+    const Decoded by_content = decode(file);
+    ASSERT_EQ(by_content.records.size(), 2U);
+    EXPECT_FALSE(by_content.remarks.empty());
+    const Decoded told = decode(file, {}, PcapOptions{{4001}});
+    ASSERT_EQ(told.records.size(), 3U) << all_of(told.remarks);
+    EXPECT_EQ(told.records[0].kind, Kind::noise);
+    EXPECT_EQ(told.records[0].frame.bytes, noise);
+    EXPECT_EQ(told.records[1].kind, Kind::request);
+    EXPECT_EQ(told.records[1].frame.channel, "master");
+    EXPECT_EQ(told.records[2].kind, Kind::response);
+    EXPECT_EQ(told.records[2].frame.channel, "slave");
+    EXPECT_TRUE(told.remarks.empty()) << all_of(told.remarks);
 }
 
 // In a flow that carries RTU a frame with a bad CRC is a bad frame, not another protocol.

@@ -16,6 +16,7 @@ namespace {
 struct DecodeArgs {
     std::string file;
     std::string input_format = "auto";
+    std::vector<std::uint16_t> rtu_ports;
     OutputArgs output;
 };
 
@@ -26,7 +27,7 @@ int run_decode(const DecodeArgs& args) {
         if (!parsed) return print_error(parsed.error()), 2;
         input_format = *parsed;
     }
-    auto source = open_source(args.file, input_format);
+    auto source = open_source(args.file, input_format, PcapOptions{args.rtu_ports});
     if (!source) return print_error(source.error()), 1;
     // After the input's header is read: it may give the device map.
     int exit_code = 0;
@@ -67,6 +68,7 @@ void add_stats_command(CLI::App& app, int& exit_code) {
     cmd->add_option("--input-format", args->input_format,
                     "capture, raw, hex or pcap; default: detected from the content")
         ->check(CLI::IsMember({"auto", "capture", "raw", "hex", "pcap"}));
+    add_rtu_port_option(*cmd, args->rtu_ports);
     add_stats_options(*cmd, args->output);
     cmd->callback([args, &exit_code] { exit_code = run_decode(*args); });
 }
@@ -82,6 +84,7 @@ void add_decode_command(CLI::App& app, int& exit_code) {
                     "a line at a time) or pcap (pcap/pcapng); default: detected from the "
                     "content")
         ->check(CLI::IsMember({"auto", "capture", "raw", "hex", "pcap"}));
+    add_rtu_port_option(*cmd, args->rtu_ports);
     add_output_options(*cmd, args->output);
     cmd->callback([args, &exit_code] { exit_code = run_decode(*args); });
 }

@@ -117,6 +117,15 @@ void add_stats_options(CLI::App& cmd, OutputArgs& args) {
     add_bus_options(cmd, args.bus);
 }
 
+void add_rtu_port_option(CLI::App& cmd, std::vector<std::uint16_t>& ports) {
+    cmd.add_option("--rtu-port", ports,
+                   "pcap: TCP/UDP port whose payloads are Modbus RTU even where no CRC checks "
+                   "(a serial gateway's port; its side is the slave's); repeatable. Otherwise "
+                   "payloads are told RTU, Modbus/TCP or neither by their content")
+        ->type_name("PORT")
+        ->check(CLI::Range(1, 65535));
+}
+
 void add_watch_options(CLI::App& cmd, OutputArgs& args) {
     add_line_options(cmd, args);
     cmd.add_flag("--no-color", args.no_color, "No colour (also off when NO_COLOR is set)");

@@ -42,6 +42,8 @@ struct OutputArgs {
 void add_output_options(CLI::App& cmd, OutputArgs& args);
 // The text's look: -t, --hex, --no-values, --no-color.
 void add_display_options(CLI::App& cmd, OutputArgs& args);
+// --rtu-port: a pcap's TCP/UDP ports that carry Modbus RTU whatever they hold.
+void add_rtu_port_option(CLI::App& cmd, std::vector<std::uint16_t>& ports);
 // watch's: line, timeout, --no-color, bus map.
 void add_watch_options(CLI::App& cmd, OutputArgs& args);
 // The statistics command's subset: formats, line, timeout, display, filters, bus map.

@@ -25,6 +25,7 @@ struct WatchArgs {
     bool plain = false;
     double interval_s = 5;
     std::string speed = "1";
+    std::vector<std::uint16_t> rtu_ports;
     LiveArgs live;
 };
 
@@ -47,7 +48,7 @@ std::unique_ptr<Display> make_display(const WatchArgs& args, bool replay) {
 
 // A capture, dump, log or pcap replayed at its own pace (or at once with --speed max).
 int watch_file(const WatchArgs& args, double speed) {
-    auto opened = open_source(args.inputs.front(), InputFormat::automatic);
+    auto opened = open_source(args.inputs.front(), InputFormat::automatic, PcapOptions{args.rtu_ports});
     if (!opened) return print_error(opened.error()), 1;
     int exit_code = 0;
     auto decoding = prepare_decoding(args.live.output, exit_code, &(*opened)->info());
@@ -138,6 +139,7 @@ void add_watch_command(CLI::App& app, int& exit_code) {
     cmd->add_option("--speed", args->speed,
                     "Replay a file this many times as fast as it was recorded, or 'max' for its "
                     "final state at once (default 1)");
+    add_rtu_port_option(*cmd, args->rtu_ports);
     add_recording_options(*cmd, args->live);
     add_watch_options(*cmd, args->live.output);
     cmd->callback([args, &exit_code] { exit_code = run_watch(*args); });

@@ -158,8 +158,14 @@ IpFlows::Flow& IpFlows::flow_for(const FlowKey& key, std::string_view channel) {
     Flow flow;
     flow.key = key;
     flow.channel = channel;
-    // The answers of a flow whose requests are Modbus are Modbus of the same kind.
-    if (auto reverse = flows_.find(key.reversed()); reverse != flows_.end()) {
+    const auto is_rtu_port = [this](std::uint16_t port) {
+        return std::find(rtu_ports_.begin(), rtu_ports_.end(), port) != rtu_ports_.end();
+    };
+    if (is_rtu_port(key.destination_port) || is_rtu_port(key.source_port)) {
+        flow.protocol = Protocol::rtu;
+        flow.channel = is_rtu_port(key.destination_port) ? "master" : "slave";
+    } else if (auto reverse = flows_.find(key.reversed()); reverse != flows_.end()) {
+        // The answers of a flow whose requests are Modbus are Modbus of the same kind.
         const Protocol protocol = reverse->second.protocol;
         if (protocol == Protocol::rtu || protocol == Protocol::modbus_tcp) flow.protocol = protocol;
     }

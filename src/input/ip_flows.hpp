@@ -72,7 +72,10 @@ class IpFlows {
         virtual void skipped(Skip why, const FlowKey& flow, std::uint64_t packets) = 0;
     };
 
-    explicit IpFlows(Output& out) : out_(out) {}
+    // `rtu_ports`: flows to or from these ports carry Modbus RTU whatever their bytes
+    // look like, the port's side the slave's.
+    explicit IpFlows(Output& out, std::vector<std::uint16_t> rtu_ports = {})
+        : out_(out), rtu_ports_(std::move(rtu_ports)) {}
 
     // `payload`: the bytes captured; `channel`: the direction the ports say.
     void tcp(const FlowKey& key, const TcpSegment& segment, std::span<const std::uint8_t> payload,
@@ -141,6 +144,7 @@ class IpFlows {
     void skip_packets(const Flow& flow, std::size_t from_mark, std::size_t to_mark);
 
     Output& out_;
+    std::vector<std::uint16_t> rtu_ports_;
     std::unordered_map<FlowKey, Flow, FlowKeyHash> flows_;
     std::list<FlowKey> recent_;  // most recently active first
     std::size_t held_bytes_ = 0;  // early bytes of all streams

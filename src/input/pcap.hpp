@@ -42,10 +42,20 @@ inline constexpr std::uint16_t kMasterPort = 49152;
 // types) are skipped and counted in remarks(), and so are packets the capture's snap
 // length cut. A file cut short or corrupt gives its packets up to the bad one, then an
 // error naming the packet.
-Result<std::unique_ptr<ChunkSource>> open_pcap_source(const std::string& path);
+// What the user says of a capture's TCP and UDP traffic.
+struct PcapOptions {
+    // Ports whose payloads are Modbus RTU whatever they hold (a serial gateway's port):
+    // framed as RTU even where no CRC checks, the side of the port being the slave's.
+    // Other payloads are told apart by their content.
+    std::vector<std::uint16_t> rtu_ports;
+};
+
+Result<std::unique_ptr<ChunkSource>> open_pcap_source(const std::string& path,
+                                                      const PcapOptions& options = {});
 
 // The same over a file in memory; `name` is used in messages.
-Result<std::unique_ptr<ChunkSource>> pcap_source_from_memory(std::string content, std::string name);
+Result<std::unique_ptr<ChunkSource>> pcap_source_from_memory(std::string content, std::string name,
+                                                             const PcapOptions& options = {});
 
 // The same through rtuscope's own pcapng reader alone, which is otherwise used only where
 // libpcap refuses a file (tests, fuzzers).
@@ -55,7 +65,8 @@ Result<std::unique_ptr<ChunkSource>> pcapng_source_from_memory(std::string conte
 // The same over `head` (bytes already read from the stream, e.g. by format detection)
 // followed by the rest of `rest` (may be null). Owns `rest` when `close_rest`.
 Result<std::unique_ptr<ChunkSource>> pcap_source_from_stream(std::string head, std::FILE* rest,
-                                                             bool close_rest, std::string name);
+                                                             bool close_rest, std::string name,
+                                                             const PcapOptions& options = {});
 
 // Whether `head` starts like a pcap or pcapng file (by its magic numbers).
 bool looks_like_pcap(std::string_view head);

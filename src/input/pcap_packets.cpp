@@ -299,7 +299,7 @@ bool supported_link_type(int link_type) {
     }
 }
 
-PacketChunker::PacketChunker() : flows_(*this) {}
+PacketChunker::PacketChunker(const PcapOptions& options) : flows_(*this, options.rtu_ports) {}
 
 Status PacketChunker::add(const Packet& packet, std::uint64_t number) {
     ++packets_;

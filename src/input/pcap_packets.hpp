@@ -12,6 +12,7 @@
 
 #include "input/chunk.hpp"
 #include "input/ip_flows.hpp"
+#include "input/pcap.hpp"
 #include "util/result.hpp"
 #include "util/time.hpp"
 
@@ -52,7 +53,7 @@ bool supported_link_type(int link_type);
 // several chunks, taken with pop().
 class PacketChunker final : private IpFlows::Output {
   public:
-    PacketChunker();
+    explicit PacketChunker(const PcapOptions& options);
     PacketChunker(const PacketChunker&) = delete;
     PacketChunker& operator=(const PacketChunker&) = delete;
     ~PacketChunker() override = default;

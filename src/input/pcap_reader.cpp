@@ -239,8 +239,8 @@ Result<std::unique_ptr<PcapngReader>> open_own_reader(std::FILE* file) {
 class PcapSource final : public ChunkSource {
   public:
     PcapSource(std::unique_ptr<PacketReader> reader, std::unique_ptr<Rereading> rereading,
-               std::string name)
-        : reader_(std::move(reader)), rereading_(std::move(rereading)) {
+               std::string name, const PcapOptions& options)
+        : reader_(std::move(reader)), rereading_(std::move(rereading)), chunker_(options) {
         info_.name = std::move(name);
         info_.format = "pcap";
         info_.timed = true;
@@ -349,7 +349,8 @@ bool looks_like_pcap(std::string_view head) {
 }
 
 Result<std::unique_ptr<ChunkSource>> pcap_source_from_stream(std::string head, std::FILE* rest,
-                                                             bool close_rest, std::string name) {
+                                                             bool close_rest, std::string name,
+                                                             const PcapOptions& options) {
     std::unique_ptr<Rereading> rereading;
     // A file of ours whose head was read from its own start (it stands just past the head)
     // and that can go back there is libpcap's to read as it is: through the chain below,
@@ -389,7 +390,7 @@ Result<std::unique_ptr<ChunkSource>> pcap_source_from_stream(std::string head, s
     if (refused.empty()) {
         return std::unique_ptr<ChunkSource>(std::make_unique<PcapSource>(
             std::make_unique<LibpcapReader>(pcap, std::move(read_buffer)), std::move(rereading),
-            std::move(name)));
+            std::move(name), options));
     }
     // libpcap refuses the file, or reads only an interface that carries no RTU: a pcapng
     // file may hold others.
@@ -408,12 +409,12 @@ Result<std::unique_ptr<ChunkSource>> pcap_source_from_stream(std::string head, s
         return Error{opened ? own.error().message : refused, name};
     }
     return std::unique_ptr<ChunkSource>(
-        std::make_unique<PcapSource>(std::move(*own), nullptr, std::move(name)));
+        std::make_unique<PcapSource>(std::move(*own), nullptr, std::move(name), options));
 }
 
-Result<std::unique_ptr<ChunkSource>> pcap_source_from_memory(std::string content,
-                                                             std::string name) {
-    return pcap_source_from_stream(std::move(content), nullptr, false, std::move(name));
+Result<std::unique_ptr<ChunkSource>> pcap_source_from_memory(std::string content, std::string name,
+                                                             const PcapOptions& options) {
+    return pcap_source_from_stream(std::move(content), nullptr, false, std::move(name), options);
 }
 
 Result<std::unique_ptr<ChunkSource>> pcapng_source_from_memory(std::string content,
@@ -425,11 +426,12 @@ Result<std::unique_ptr<ChunkSource>> pcapng_source_from_memory(std::string conte
     Result<std::unique_ptr<PcapngReader>> own = open_own_reader(*stream);
     if (!own) return Error{own.error().message, name};
     return std::unique_ptr<ChunkSource>(
-        std::make_unique<PcapSource>(std::move(*own), nullptr, std::move(name)));
+        std::make_unique<PcapSource>(std::move(*own), nullptr, std::move(name), PcapOptions{}));
 }
 
-Result<std::unique_ptr<ChunkSource>> open_pcap_source(const std::string& path) {
-    return open_source(path, InputFormat::pcap);
+Result<std::unique_ptr<ChunkSource>> open_pcap_source(const std::string& path,
+                                                      const PcapOptions& options) {
+    return open_source(path, InputFormat::pcap, options);
 }
 
 }  // namespace rtuscope

@@ -251,7 +251,8 @@ InputFormat detect_input_format(std::string_view head) {
     return InputFormat::hex;
 }
 
-Result<std::unique_ptr<ChunkSource>> open_source(const std::string& path, InputFormat format) {
+Result<std::unique_ptr<ChunkSource>> open_source(const std::string& path, InputFormat format,
+                                                 const PcapOptions& pcap) {
     std::FILE* file = stdin;
     const bool is_stdin = path == "-";
     if (!is_stdin) {
@@ -304,19 +305,20 @@ Result<std::unique_ptr<ChunkSource>> open_source(const std::string& path, InputF
         format = detect_input_format(head);
     }
     if (format == InputFormat::pcap) {
-        return pcap_source_from_stream(std::move(head), file, !is_stdin, path);
+        return pcap_source_from_stream(std::move(head), file, !is_stdin, path, pcap);
     }
     auto in = std::make_unique<detail::InputBuffer>(std::move(head), file, !is_stdin, path);
     return make_source(std::move(in), format);
 }
 
 Result<std::unique_ptr<ChunkSource>> source_from_memory(std::string content, std::string name,
-                                                        InputFormat format) {
+                                                        InputFormat format,
+                                                        const PcapOptions& pcap) {
     if (format == InputFormat::automatic) {
         format = detect_input_format(std::string_view(content).substr(0, kSniffBytes));
     }
     if (format == InputFormat::pcap)
-        return pcap_source_from_memory(std::move(content), std::move(name));
+        return pcap_source_from_memory(std::move(content), std::move(name), pcap);
     auto in =
         std::make_unique<detail::InputBuffer>(std::move(content), nullptr, false, std::move(name));
     return make_source(std::move(in), format);

@@ -11,6 +11,7 @@
 #include <string_view>
 
 #include "input/chunk.hpp"
+#include "input/pcap.hpp"
 #include "util/result.hpp"
 
 namespace rtuscope {
@@ -26,11 +27,14 @@ InputFormat detect_input_format(std::string_view head);
 
 // Opens a file ("-" for standard input) and returns a source for it. Errors name the
 // file and, for content errors found while opening (a bad header), the line and column.
-Result<std::unique_ptr<ChunkSource>> open_source(const std::string& path, InputFormat format);
+// `pcap`: what the user says of a pcap's TCP and UDP traffic.
+Result<std::unique_ptr<ChunkSource>> open_source(const std::string& path, InputFormat format,
+                                                 const PcapOptions& pcap = {});
 
 // The same over text or bytes already in memory (tests, fuzzers); `name` is used in
 // messages.
 Result<std::unique_ptr<ChunkSource>> source_from_memory(std::string content, std::string name,
-                                                        InputFormat format);
+                                                        InputFormat format,
+                                                        const PcapOptions& pcap = {});
 
 }  // namespace rtuscope
