@@ -68,12 +68,9 @@ std::optional<Nanos> RecentDurations::percentile(unsigned percent) const {
 
 namespace {
 // Whole seconds, rounded down: a capture's first frame may start before its time 0.
-std::int64_t second_of(Nanos t) {
-    return t >= 0 ? t / kNanosPerSecond : -((-t + kNanosPerSecond - 1) / kNanosPerSecond);
-}
+std::int64_t second_of(Nanos t) { return floor_div(t, kNanosPerSecond); }
 std::size_t bucket_of(std::int64_t second) {
-    const auto n = static_cast<std::int64_t>(PerSecond::kSeconds);
-    return static_cast<std::size_t>(((second % n) + n) % n);
+    return static_cast<std::size_t>(floor_mod(second, static_cast<std::int64_t>(PerSecond::kSeconds)));
 }
 }  // namespace
 
