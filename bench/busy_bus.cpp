@@ -76,15 +76,8 @@ int main(int argc, char** argv) {
         ::close(fd);
         return 0;
     }
-    const std::array<const char*, 4> kinds = {"zb-uvi485", "sensor-analyser", "pdu485",
-                                              "zyi-relay"};
-    std::vector<std::unique_ptr<sim::Device>> devices;
-    for (std::size_t i = 0; i < kinds.size(); ++i) {
-        auto device = sim::start_device(kinds[i], static_cast<std::uint8_t>(i + 1),
-                                        (*bus)->port_path(i + 1), line);
-        if (!device) return fmt::print(stderr, "{}\n", device.error().to_string()), 1;
-        devices.push_back(std::move(*device));
-    }
+    auto devices = sim::start_seed_devices(**bus, line);
+    if (!devices) return fmt::print(stderr, "{}\n", devices.error().to_string()), 1;
     fmt::print("{}\n", (*bus)->port_path(5));
     std::fflush(stdout);
     // The sniffer opens the port first; then the master starts.

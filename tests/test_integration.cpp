@@ -50,15 +50,8 @@ TEST(Integration, EveryTransactionOfTheMasterIsDecodedAndPaired) {
     const LineSettings line = bus_line();
     auto vbus = sim::VirtualBus::create(6, {line, true});
     ASSERT_TRUE(vbus) << vbus.error().to_string();
-    const std::array<const char*, 4> kinds = {"zb-uvi485", "sensor-analyser", "pdu485",
-                                              "zyi-relay"};
-    std::vector<std::unique_ptr<sim::Device>> devices;
-    for (std::size_t i = 0; i < kinds.size(); ++i) {
-        auto d = sim::start_device(kinds[i], static_cast<std::uint8_t>(i + 1),
-                                   (*vbus)->port_path(i + 1), line);
-        ASSERT_TRUE(d) << d.error().to_string();
-        devices.push_back(std::move(*d));
-    }
+    auto devices = sim::start_seed_devices(**vbus, line);
+    ASSERT_TRUE(devices) << devices.error().to_string();
 
     std::atomic<bool> stop{false};
     TtyOptions tty;
@@ -130,11 +123,11 @@ TEST(Integration, EveryTransactionOfTheMasterIsDecodedAndPaired) {
         if (r.kind != Kind::response) continue;
         if (const DecodedValue* v = value_named(r, "voltage");
             v != nullptr && r.frame.slave() == 3) {
-            EXPECT_EQ(v->raw, fmt::format("0x{:04X}", devices[2]->holding(0x0000)));
+            EXPECT_EQ(v->raw, fmt::format("0x{:04X}", (*devices)[2]->holding(0x0000)));
             saw_voltage = true;
         }
         if (const DecodedValue* v = value_named(r, "uv_intensity")) {
-            EXPECT_EQ(v->raw, fmt::format("0x{:04X}", devices[0]->holding(0x0000)));
+            EXPECT_EQ(v->raw, fmt::format("0x{:04X}", (*devices)[0]->holding(0x0000)));
             saw_uv = true;
         }
     }

@@ -82,15 +82,8 @@ void add_demo_devices(OutputArgs& output) {
 int with_demo_bus(const LineSettings& line, const std::function<int(const std::string&)>& body) {
     auto bus = sim::VirtualBus::create(6, {line, true});
     if (!bus) return print_error(bus.error()), 1;
-    const std::array<const char*, 4> kinds = {"zb-uvi485", "sensor-analyser", "pdu485",
-                                              "zyi-relay"};
-    std::vector<std::unique_ptr<sim::Device>> devices;
-    for (std::size_t i = 0; i < kinds.size(); ++i) {
-        auto device = sim::start_device(kinds[i], static_cast<std::uint8_t>(i + 1),
-                                        (*bus)->port_path(i + 1), line);
-        if (!device) return print_error(device.error()), 1;
-        devices.push_back(std::move(*device));
-    }
+    auto devices = sim::start_seed_devices(**bus, line);
+    if (!devices) return print_error(devices.error()), 1;
     // The sniffer opens its port first, so that it hears the master's first request. A
     // jthread: when the run ends by an exception (an output that cannot be written), it
     // is joined on the way out, then the master stopped, as on the normal way.

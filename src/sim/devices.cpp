@@ -7,6 +7,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
 #include <cerrno>
 #include <chrono>
 #include <system_error>
@@ -371,6 +372,20 @@ Result<std::unique_ptr<Device>> start_device(const std::string& profile, std::ui
     auto device = std::make_unique<SimDevice>(*info, address, line, ctx, map);
     if (auto st = device->start(); !st) return st.error();
     return std::unique_ptr<Device>(std::move(device));
+}
+
+Result<std::vector<std::unique_ptr<Device>>> start_seed_devices(const VirtualBus& bus,
+                                                                LineSettings line) {
+    const std::array<const char*, 4> kinds = {"zb-uvi485", "sensor-analyser", "pdu485",
+                                              "zyi-relay"};
+    std::vector<std::unique_ptr<Device>> devices;
+    for (std::size_t i = 0; i < kinds.size(); ++i) {
+        auto device =
+            start_device(kinds[i], static_cast<std::uint8_t>(i + 1), bus.port_path(i + 1), line);
+        if (!device) return device.error();
+        devices.push_back(std::move(*device));
+    }
+    return devices;
 }
 
 }  // namespace rtuscope::sim

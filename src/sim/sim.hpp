@@ -83,6 +83,11 @@ class Device {
 Result<std::unique_ptr<Device>> start_device(const std::string& profile, std::uint8_t address,
                                              const std::string& port, LineSettings line);
 
+// The four seed devices at addresses 1-4 (zb-uvi485, sensor-analyser, pdu485, zyi-relay),
+// each on the bus's port of its address: the demo's bus. Errors as start_device's.
+Result<std::vector<std::unique_ptr<Device>>> start_seed_devices(const VirtualBus& bus,
+                                                                LineSettings line);
+
 // What the master did, one entry per request, for tests to compare with the sniffer.
 struct MasterEntry {
     std::uint8_t slave = 0;
