@@ -7,11 +7,7 @@
 namespace rtuscope {
 namespace {
 
-Nanos steady_now() {
-    return std::chrono::duration_cast<std::chrono::nanoseconds>(
-               std::chrono::steady_clock::now().time_since_epoch())
-        .count();
-}
+Nanos steady_now() { return clock_ns(CLOCK_MONOTONIC); }
 
 class PacedSource final : public ChunkSource {
   public:

@@ -51,12 +51,6 @@ void ParmrkDecoder::feed(std::span<const std::uint8_t> in, std::vector<std::uint
 
 namespace {
 
-Nanos clock_ns(clockid_t clock) {
-    timespec ts{};
-    clock_gettime(clock, &ts);
-    return static_cast<Nanos>(ts.tv_sec) * kNanosPerSecond + ts.tv_nsec;
-}
-
 Error open_error(const std::string& path, int err) {
     std::string message = fmt::format("cannot open: {}", std::strerror(err));
     if (err == EACCES || err == EPERM) {

@@ -5,6 +5,7 @@
 
 #include <array>
 #include <cstdint>
+#include <ctime>
 #include <limits>
 #include <optional>
 
@@ -62,6 +63,9 @@ struct CivilDate {
 // Days since 1970-01-01 of a date, and back.
 std::int64_t days_from_civil(std::int64_t year, unsigned month, unsigned day);
 CivilDate civil_from_days(std::int64_t days);
+
+// The clock's time now (CLOCK_MONOTONIC for intervals, CLOCK_REALTIME for stamps).
+Nanos clock_ns(clockid_t clock);
 
 // Floor division and its remainder, for times before 1970 (or a log's zero).
 inline constexpr std::int64_t floor_div(std::int64_t a, std::int64_t b) {

@@ -7,7 +7,6 @@
 #include <unistd.h>
 
 #include <algorithm>
-#include <chrono>
 #include <clocale>
 #include <cstdlib>
 #include <ctime>
@@ -19,11 +18,7 @@
 namespace rtuscope {
 namespace {
 
-Nanos steady_now() {
-    return std::chrono::duration_cast<std::chrono::nanoseconds>(
-               std::chrono::steady_clock::now().time_since_epoch())
-        .count();
-}
+Nanos steady_now() { return clock_ns(CLOCK_MONOTONIC); }
 
 constexpr Nanos kDrawEvery = 100'000'000;  // at most 10 frames a second
 constexpr Nanos kKeysEvery = 20'000'000;   // keys are read this often, drawn or not
