@@ -6,6 +6,8 @@
 
 #include <cstdlib>
 #include <sstream>
+#include <thread>
+#include <chrono>
 
 #include "input/capture_writer.hpp"
 #include "input/sources.hpp"
@@ -194,6 +196,60 @@ Bytes read_bytes(ChunkSource& source, std::size_t want, std::vector<std::uint32_
     return got;
 }
 
+// 115200 baud 8N1: a character takes 86.8 us, and t1.5 is the fixed 750 us.
+constexpr Nanos kChar = 86'805;
+constexpr Nanos kWindow = 750'000;
+
+LineSettings fast_line() {
+    LineSettings line;
+    line.baud = 115200;
+    return line;
+}
+
+TEST(ReadBatcher, TheFirstByteAfterASilenceIsStampedAsItArrivesAndStartsABatch) {
+    ReadBatcher batcher(fast_line());
+    EXPECT_FALSE(batcher.batching());
+    EXPECT_EQ(batcher.stamp(1'000'000, 1), 1'000'000);
+    EXPECT_TRUE(batcher.batching());
+    EXPECT_EQ(batcher.next_read(), 1'000'000 + kWindow);
+}
+
+TEST(ReadBatcher, AWindowTheLineFilledIsStampedWhenReadAndTheBatchGoesOn) {
+    ReadBatcher batcher(fast_line());
+    batcher.stamp(1'000'000, 1);
+    // 760 us later, 8 characters (694 us) and part of a ninth: the line never stopped.
+    EXPECT_EQ(batcher.stamp(1'760'000, 8), 1'000'000 + 8 * kChar);
+    EXPECT_TRUE(batcher.batching());
+    // A read that comes late finds more than the time could hold: stamped when read.
+    EXPECT_EQ(batcher.stamp(2'300'000, 12), 2'300'000);
+    EXPECT_TRUE(batcher.batching());
+}
+
+TEST(ReadBatcher, AWindowWithASilenceEndsTheBatchWithTheSilenceAfterItsBytes) {
+    ReadBatcher batcher(fast_line());
+    batcher.stamp(1'000'000, 1);
+    // Three characters in 760 us: the frame ended 260 us after the last read.
+    EXPECT_EQ(batcher.stamp(1'760'000, 3), 1'000'000 + 3 * kChar);
+    EXPECT_FALSE(batcher.batching());
+    // The next byte wakes the reader again, and is stamped as it arrives.
+    EXPECT_EQ(batcher.stamp(5'000'000, 1), 5'000'000);
+    EXPECT_TRUE(batcher.batching());
+}
+
+TEST(ReadBatcher, AReadLongAfterItsWindowIsStampedWhenItCame) {
+    ReadBatcher batcher(fast_line());
+    batcher.stamp(1'000'000, 1);
+    EXPECT_EQ(batcher.stamp(31'000'000, 3), 31'000'000);
+    EXPECT_TRUE(batcher.batching());
+}
+
+TEST(ReadBatcher, AnEmptyReadEndsTheBatch) {
+    ReadBatcher batcher(fast_line());
+    batcher.stamp(1'000'000, 1);
+    batcher.stamp(1'760'000, 0);
+    EXPECT_FALSE(batcher.batching());
+}
+
 TEST(TtySource, ReadsWhatArrivesWithWallTimes) {
     Pty pty;
     TtyOptions o;
@@ -254,6 +310,30 @@ TEST(TtySource, OpenErrorsNameTheFix) {
     ASSERT_FALSE(not_a_tty);
     EXPECT_EQ(not_a_tty.error().to_string(),
               "/dev/null: not a serial port (to decode a file, use rtuscope decode)");
+}
+
+TEST(TtySource, ASilenceBetweenBatchesIsMeasuredAsItWas) {
+    Pty pty;
+    TtyOptions o;
+    o.ports = {pty.path};
+    auto source = open_tty_source(o);
+    ASSERT_TRUE(source);
+    const auto next_bytes = [&](Chunk& chunk) {
+        for (int i = 0; i < 400; ++i) {
+            if (!*(*source)->next(chunk)) return false;
+            if (!chunk.bytes.empty()) return true;
+        }
+        return false;
+    };
+    pty.write_bytes(Bytes{0x01, 0x03, 0x00});
+    Chunk first;
+    ASSERT_TRUE(next_bytes(first));
+    // The reader's window passes empty while the line is quiet for 30 ms.
+    std::this_thread::sleep_for(std::chrono::milliseconds(30));
+    pty.write_bytes(Bytes{0x00, 0x00, 0x01});
+    Chunk second;
+    ASSERT_TRUE(next_bytes(second));
+    EXPECT_GE(second.time - first.time, 30 * kMs);
 }
 
 TEST(TtySource, TwoPortsAreTaggedWithTheirChannels) {

@@ -54,4 +54,32 @@ class ParmrkDecoder {
     int pending_ = 0;  // 0xFF bytes of an escape seen so far: 0, 1 (FF) or 2 (FF 00)
 };
 
+// When a port is read and how what it gives is stamped. The first byte after a silence
+// wakes the reader at once and is stamped as it arrives. While a frame keeps coming, the
+// port is read once every t1.5 rather than at every byte: a wake-up per byte costs more
+// CPU than all the decoding (on a busy 115200-baud line, ten thousand a second). A read
+// that finds fewer bytes than its window could hold ends the batching, so that the next
+// byte again wakes the reader at once; its bytes are stamped as following on from the
+// read before, the silence after them. So every silence of t1.5 or more (the least the
+// specification counts as the end of a frame) is measured as exactly as the port
+// delivers bytes; a shorter one with bytes after it in the same window is placed after
+// those bytes.
+class ReadBatcher {
+  public:
+    explicit ReadBatcher(const LineSettings& line)
+        : char_time_(line.char_time()), window_(line.t15()) {}
+    // Bytes just read at `now` (monotonic): the time to stamp their last byte with.
+    Nanos stamp(Nanos now, std::size_t count);
+    // Whether the next read waits for the window rather than for the next byte.
+    [[nodiscard]] bool batching() const { return batching_; }
+    // When a batching port is read next.
+    [[nodiscard]] Nanos next_read() const { return last_read_ + window_; }
+
+  private:
+    Nanos char_time_;
+    Nanos window_;
+    bool batching_ = false;
+    Nanos last_read_ = 0;
+};
+
 }  // namespace rtuscope

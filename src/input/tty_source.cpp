@@ -49,6 +49,27 @@ void ParmrkDecoder::feed(std::span<const std::uint8_t> in, std::vector<std::uint
     }
 }
 
+Nanos ReadBatcher::stamp(Nanos now, std::size_t count) {
+    if (count == 0) {
+        batching_ = false;  // the line fell silent: the next byte wakes the reader
+        return now;
+    }
+    Nanos end = now;
+    // A read long after its window (the pipeline was busy elsewhere) knows no more than
+    // when it came, like the first read after a silence.
+    if (batching_ && now - last_read_ <= 2 * window_) {
+        // The line was busy when the port was last read: these bytes follow on from then.
+        const Nanos bytes_time = static_cast<Nanos>(count) * char_time_;
+        end = std::min(now, last_read_ + bytes_time);
+        // A window the bytes did not fill had a silence in it.
+        batching_ = now - last_read_ - bytes_time <= char_time_;
+    } else {
+        batching_ = true;  // a frame has begun
+    }
+    last_read_ = now;
+    return end;
+}
+
 namespace {
 
 Error open_error(const std::string& path, int err) {
@@ -70,6 +91,7 @@ struct Port {
     std::string channel;
     int fd = -1;
     ParmrkDecoder parmrk;
+    ReadBatcher batcher;
 };
 
 class TtySource final : public ChunkSource {
@@ -97,13 +119,11 @@ class TtySource final : public ChunkSource {
     [[nodiscard]] const SourceInfo& info() const override { return info_; }
 
     Result<bool> next(Chunk& out) override {
-        out.bytes.clear();
-        out.char_errors.clear();
-        out.source_line = 0;
+        reuse(out);
         // A second port's bytes read together with the first's are handed over next.
-        if (!queued_.empty()) {
-            out = std::move(queued_.back());
-            queued_.pop_back();
+        if (second_ready_) {
+            second_ready_ = false;
+            std::swap(out, reads_[1]);
             return true;
         }
         for (;;) {
@@ -111,40 +131,79 @@ class TtySource final : public ChunkSource {
             const Nanos now = clock_ns(CLOCK_MONOTONIC);
             if (options_.duration && now - mono_start_ >= *options_.duration) return false;
 
+            // A port in the middle of a frame is read when its window ends, not at its
+            // next byte (ReadBatcher).
+            int timeout_ms = static_cast<int>(options_.tick / 1'000'000);
+            if (const Nanos due = next_batch_read(); has_time(due)) {
+                const timespec until{static_cast<time_t>(due / kNanosPerSecond),
+                                     static_cast<long>(due % kNanosPerSecond)};
+                if (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &until, nullptr) != 0) {
+                    continue;  // a signal: the stop flag says what to do
+                }
+                timeout_ms = 0;
+            }
             std::array<pollfd, 2> fds{};
             for (std::size_t i = 0; i < ports_.size(); ++i) fds[i] = {ports_[i].fd, POLLIN, 0};
-            const int ready =
-                poll(fds.data(), ports_.size(), static_cast<int>(options_.tick / 1'000'000));
+            const int ready = poll(fds.data(), ports_.size(), timeout_ms);
             if (ready < 0) {
                 if (errno == EINTR) continue;  // a signal: the stop flag says what to do
                 return Error{fmt::format("poll: {}", std::strerror(errno)), info_.name};
             }
-            const Nanos at = to_wall(clock_ns(CLOCK_MONOTONIC));
-            if (ready == 0) {
-                out.time = at;  // nothing came: a tick
+            const Nanos read_at = clock_ns(CLOCK_MONOTONIC);
+            // Each port's read goes into its own chunk, whose buffers are kept from call
+            // to call (swapped with the caller's).
+            std::size_t with_bytes = 0;
+            for (std::size_t i = 0; i < ports_.size(); ++i) {
+                Port& port = ports_[i];
+                Chunk& chunk = reads_[i];
+                reuse(chunk);
+                if (fds[i].revents != 0) {
+                    if (Status s = read_port(port, fds[i].revents, chunk); !s) return s.error();
+                } else if (!port.batcher.batching()) {
+                    continue;
+                }
+                chunk.time = to_wall(port.batcher.stamp(read_at, chunk.bytes.size()));
+                if (!chunk.bytes.empty()) ++with_bytes;
+            }
+            if (with_bytes == 0) {
+                if (ready != 0) continue;
+                out.time = to_wall(read_at);  // nothing came: a tick
                 out.channel.clear();
                 return true;
             }
-            std::vector<Chunk> got;
-            for (std::size_t i = 0; i < ports_.size(); ++i) {
-                if (fds[i].revents == 0) continue;
-                Chunk chunk;
-                if (Status s = read_port(ports_[i], fds[i].revents, at, chunk); !s) {
-                    return s.error();
-                }
-                if (!chunk.bytes.empty()) got.push_back(std::move(chunk));
-            }
-            if (got.empty()) continue;
-            out = std::move(got.front());
-            for (std::size_t i = got.size(); i > 1; --i) queued_.push_back(std::move(got[i - 1]));
+            const std::size_t first = reads_[0].bytes.empty() ? 1 : 0;
+            std::swap(out, reads_[first]);
+            second_ready_ = with_bytes == 2;
             return true;
         }
     }
 
   private:
+    // A chunk as new, with the room its buffers had.
+    static void reuse(Chunk& chunk) {
+        std::vector<std::uint8_t> bytes = std::move(chunk.bytes);
+        std::vector<std::uint32_t> errors = std::move(chunk.char_errors);
+        chunk = Chunk{};
+        bytes.clear();
+        errors.clear();
+        chunk.bytes = std::move(bytes);
+        chunk.char_errors = std::move(errors);
+    }
+
     Nanos to_wall(Nanos mono) const { return wall_start_ + (mono - mono_start_); }
 
-    static Status read_port(Port& port, short revents, Nanos at, Chunk& chunk) {
+    // The earliest window's end among the ports that are batching; none when no port is.
+    Nanos next_batch_read() const {
+        Nanos due = kNoTime;
+        for (const Port& p : ports_) {
+            if (p.batcher.batching() && (!has_time(due) || p.batcher.next_read() < due)) {
+                due = p.batcher.next_read();
+            }
+        }
+        return due;
+    }
+
+    static Status read_port(Port& port, short revents, Chunk& chunk) {
         std::array<std::uint8_t, 4096> buffer{};
         const ssize_t n = read(port.fd, buffer.data(), buffer.size());
         if (n < 0 && (errno == EAGAIN || errno == EINTR)) return ok_status();
@@ -154,7 +213,6 @@ class TtySource final : public ChunkSource {
                                      std::strerror(err)),
                          port.path};
         }
-        chunk.time = at;
         chunk.channel = port.channel;
         port.parmrk.feed(std::span(buffer.data(), static_cast<std::size_t>(n)), chunk.bytes,
                          chunk.char_errors);
@@ -166,7 +224,8 @@ class TtySource final : public ChunkSource {
     SourceInfo info_;
     Nanos mono_start_ = 0;
     Nanos wall_start_ = 0;
-    std::vector<Chunk> queued_;
+    std::array<Chunk, 2> reads_;
+    bool second_ready_ = false;  // both ports had bytes: reads_[1] is handed over next
 };
 
 Status configure(Port& port, const LineSettings& line, std::vector<std::string>& notices) {
@@ -234,8 +293,11 @@ Result<std::unique_ptr<ChunkSource>> open_tty_source(const TtyOptions& options,
     std::vector<Port> ports;
     std::vector<std::string> said;
     for (std::size_t i = 0; i < options.ports.size(); ++i) {
-        Port port;
-        port.path = options.ports[i];
+        Port port{.path = options.ports[i],
+                  .channel = {},
+                  .fd = -1,
+                  .parmrk = {},
+                  .batcher = ReadBatcher(options.line)};
         if (options.ports.size() > 1) {
             port.channel = i < options.channels.size() ? options.channels[i]
                                                        : std::string(i == 0 ? "master" : "slave");
