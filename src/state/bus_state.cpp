@@ -9,45 +9,47 @@
 
 namespace rtuscope {
 
-SlotIndex::SlotIndex(std::size_t capacity, const std::vector<RegisterState>& slots)
-    : slots_(slots), entries_(std::bit_ceil(capacity * 2), kNone) {}
+SlotIndex::SlotIndex(std::size_t capacity) : entries_(std::bit_ceil(capacity * 2)) {}
 
 std::size_t SlotIndex::home(std::uint32_t key) const {
-    // Fibonacci hashing: keys differ mostly in their low bits (addresses).
-    return static_cast<std::size_t>((key * 0x9E3779B1U) >> 8) & (entries_.size() - 1);
+    // Fibonacci hashing of all but the address's last 4 bits, which place the key within
+    // a run of 16 entries: a block of registers read together shares cache lines.
+    const std::size_t run = ((key >> 4) * 0x9E3779B1U) >> 8;
+    return ((run << 4) | (key & 15U)) & (entries_.size() - 1);
 }
 
 std::uint32_t SlotIndex::find(std::uint32_t key) const {
     for (std::size_t i = home(key);; i = (i + 1) & (entries_.size() - 1)) {
-        const std::uint32_t slot = entries_[i];
-        if (slot == kNone || key_of(slot) == key) return slot;
+        const Entry& e = entries_[i];
+        if (e.slot == kNone || e.key == key) return e.slot;
     }
 }
 
-void SlotIndex::insert(std::uint32_t slot) {
-    std::size_t i = home(key_of(slot));
-    while (entries_[i] != kNone) i = (i + 1) & (entries_.size() - 1);
-    entries_[i] = slot;
+void SlotIndex::insert(std::uint32_t key, std::uint32_t slot) {
+    std::size_t i = home(key);
+    while (entries_[i].slot != kNone) i = (i + 1) & (entries_.size() - 1);
+    entries_[i] = {key, slot};
     ++size_;
 }
 
 void SlotIndex::erase(std::uint32_t key) {
     const std::size_t mask = entries_.size() - 1;
     std::size_t hole = home(key);
-    while (entries_[hole] != kNone && key_of(entries_[hole]) != key) hole = (hole + 1) & mask;
-    if (entries_[hole] == kNone) return;
+    while (entries_[hole].slot != kNone && entries_[hole].key != key) hole = (hole + 1) & mask;
+    if (entries_[hole].slot == kNone) return;
     --size_;
     // Backward shift: an entry after the hole moves into it unless its home lies
     // between the hole and itself (cyclically), so that every probe still finds it.
-    for (std::size_t next = (hole + 1) & mask; entries_[next] != kNone; next = (next + 1) & mask) {
-        const std::size_t want = home(key_of(entries_[next]));
+    for (std::size_t next = (hole + 1) & mask; entries_[next].slot != kNone;
+         next = (next + 1) & mask) {
+        const std::size_t want = home(entries_[next].key);
         const bool stays = hole <= next ? (hole < want && want <= next)
                                         : (hole < want || want <= next);
         if (stays) continue;
         entries_[hole] = entries_[next];
         hole = next;
     }
-    entries_[hole] = kNone;
+    entries_[hole] = Entry{};
 }
 
 void RecentDurations::add(Nanos value) {
@@ -137,8 +139,10 @@ const SlaveState* BusState::slave(std::uint8_t address) const {
 
 std::vector<const RegisterState*> BusState::registers(std::uint8_t slave) const {
     std::vector<const RegisterState*> out;
-    for (const RegisterState& r : slots_) {
-        if (r.key.slave == slave && r.raw_words > 0) out.push_back(&r);
+    for (std::size_t slot = 0; slot < slot_keys_.size(); ++slot) {
+        if (slot_keys_[slot] >> 24 != slave) continue;
+        const RegisterState& r = slots_[slot];
+        if (r.raw_words > 0) out.push_back(&r);
     }
     std::sort(out.begin(), out.end(), [](const RegisterState* a, const RegisterState* b) {
         return a->key.packed() < b->key.packed();
@@ -260,6 +264,7 @@ std::uint32_t BusState::slot_for(RegisterKey key) {
         if (slots_.empty()) oldest_ = newest_ = SlotIndex::kNone;
         slot = static_cast<std::uint32_t>(slots_.size());
         slots_.emplace_back();
+        slot_keys_.push_back(packed);
         slots_.back().older = slots_.back().newer = SlotIndex::kNone;
     } else {
         // The register not updated for the longest gives its slot (and buffers) up.
@@ -274,7 +279,8 @@ std::uint32_t BusState::slot_for(RegisterKey key) {
         slots_[slot].older = slots_[slot].newer = SlotIndex::kNone;
     }
     slots_[slot].key = key;
-    index_.insert(slot);
+    slot_keys_[slot] = packed;
+    index_.insert(packed, slot);
     return slot;
 }
 

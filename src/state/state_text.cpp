@@ -148,12 +148,8 @@ std::vector<StyledLine> slave_table(const BusState& state, const StateView& view
     return lines;
 }
 
-std::vector<StyledLine> register_table(const BusState& state, std::uint8_t slave,
-                                       const StateView& view) {
-    std::vector<StyledLine> lines;
-    lines.push_back({register_line("table", "addr", "name", "value", "unit", "raw", "age",
-                                   "written", "changed", "n", "min", "max", "last values"),
-                     LineStyle::heading});
+std::vector<const RegisterState*> shown_registers(const BusState& state, std::uint8_t slave,
+                                                  const StateView& view) {
     std::vector<const RegisterState*> registers = state.registers(slave);
     if (!view.register_filter.empty()) {
         std::erase_if(registers, [&](const RegisterState* r) {
@@ -171,6 +167,16 @@ std::vector<StyledLine> register_table(const BusState& state, std::uint8_t slave
                              return a->last_change > b->last_change;
                          });
     }
+    return registers;
+}
+
+std::vector<StyledLine> register_table(const BusState& state,
+                                       std::span<const RegisterState* const> registers,
+                                       const StateView& view) {
+    std::vector<StyledLine> lines;
+    lines.push_back({register_line("table", "addr", "name", "value", "unit", "raw", "age",
+                                   "written", "changed", "n", "min", "max", "last values"),
+                     LineStyle::heading});
     for (const RegisterState* r : registers) {
         std::string raw;
         for (std::size_t i = 0; i < std::min<std::size_t>(r->raw_words, r->raw.size()); ++i) {
@@ -211,7 +217,8 @@ std::string state_text(const BusState& state, const StateView& view) {
     std::string out = bus_line(state, view) + '\n';
     for (const StyledLine& l : slave_table(state, view)) out += l.text + '\n';
     for (const SlaveState* s : state.slaves()) {
-        const std::vector<StyledLine> registers = register_table(state, s->address, view);
+        const std::vector<StyledLine> registers =
+            register_table(state, shown_registers(state, s->address, view), view);
         if (registers.size() <= 1) continue;
         out += fmt::format("\nslave {} ({}):\n", s->address,
                            s->profile != nullptr ? s->profile->name : "no profile");

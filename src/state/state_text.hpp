@@ -5,6 +5,7 @@
 
 #include <cstdint>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -41,8 +42,12 @@ struct StateView {
 std::string bus_line(const BusState& state, const StateView& view);
 // The heading and one line per slave, by address.
 std::vector<StyledLine> slave_table(const BusState& state, const StateView& view);
-// The heading and one line per register of `slave`.
-std::vector<StyledLine> register_table(const BusState& state, std::uint8_t slave,
+// The registers of `slave` that the view's filter keeps, in its order.
+std::vector<const RegisterState*> shown_registers(const BusState& state, std::uint8_t slave,
+                                                  const StateView& view);
+// The heading and one line per register (a screen shows the ones that fit).
+std::vector<StyledLine> register_table(const BusState& state,
+                                       std::span<const RegisterState* const> registers,
                                        const StateView& view);
 // Everything, every slave's registers included: the plain output and a snapshot.
 std::string state_text(const BusState& state, const StateView& view);

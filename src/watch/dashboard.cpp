@@ -298,12 +298,13 @@ class Dashboard final : public Display {
         }
         if (!slave_list.empty()) {
             const SlaveState& s = *slave_list[selected_];
-            const std::vector<StyledLine> registers = register_table(state, s.address, view_);
+            const std::vector<const RegisterState*> shown =
+                shown_registers(state, s.address, view_);
             ++row;
             line(row++,
                  fmt::format("slave {} ({}): {} registers{}{}", s.address,
                              s.profile != nullptr ? s.profile->name : "no profile",
-                             registers.size() - 1,
+                             shown.size(),
                              view_.register_filter.empty()
                                  ? ""
                                  : fmt::format(", name contains \"{}\"", view_.register_filter),
@@ -311,13 +312,17 @@ class Dashboard final : public Display {
                              : view_.sort == StateView::Sort::last_change ? ", latest change first"
                                                                           : ""),
                  LineStyle::plain);
-            line(row++, registers[0].text, LineStyle::heading);
-            const int room = std::max(1, LINES - footer - row);
+            const int room = std::max(1, LINES - footer - row - 1);
             page_ = static_cast<std::size_t>(room);
-            const std::size_t count = registers.size() - 1;
+            const std::size_t count = shown.size();
             if (scroll_ >= count) scroll_ = count > 0 ? count - 1 : 0;
-            for (std::size_t i = scroll_; i < count && row < LINES - footer; ++i) {
-                line(row++, registers[i + 1].text, registers[i + 1].style);
+            // Only the rows that fit are formatted: a slave may have thousands.
+            const std::size_t visible = std::min(count - scroll_, static_cast<std::size_t>(room));
+            const std::vector<StyledLine> registers = register_table(
+                state, std::span(shown).subspan(scroll_, visible), view_);
+            for (const StyledLine& l : registers) {
+                if (row >= LINES - footer) break;
+                line(row++, l.text, l.style);
             }
         }
         // Anomalies, newest last, above the status line.
