@@ -4,8 +4,9 @@
 # SECONDS, the bus in a process of its own (rtuscope_bench_busy_bus), so that only the
 # sniffer is measured. The traffic is CAPTURE played onto the virtual line SPEED times as
 # fast as recorded (scripts/bench: rtuscope_bench_gen's at 115200 baud, 8 times: the
-# line some 80 % busy; the utilisation printed is what watch's own recording shows).
-#   bench/watch.sh BUILD_DIR CAPTURE [SECONDS [SPEED]]   (default 60 s, speed 8)
+# line some 75 % busy), or with CAPTURE "seed" the four seed devices polled with no
+# pause; the utilisation printed is what watch's own recording shows.
+#   bench/watch.sh BUILD_DIR CAPTURE|seed [SECONDS [SPEED]]   (default 60 s, speed 8)
 set -euo pipefail
 dir=$1
 capture=$2
@@ -21,7 +22,13 @@ cleanup() {
 }
 trap cleanup EXIT
 
-"$dir/bench/rtuscope_bench_busy_bus" --baud 115200 --capture "$capture" --speed "$speed" >"$work/port" &
+if [ "$capture" = seed ]; then
+    "$dir/bench/rtuscope_bench_busy_bus" --baud 115200 >"$work/port" &
+    traffic="the seed devices polled with no pause"
+else
+    "$dir/bench/rtuscope_bench_busy_bus" --baud 115200 --capture "$capture" --speed "$speed" >"$work/port" &
+    traffic="$(basename "$capture") at $speed times its pace"
+fi
 bus_pid=$!
 for _ in $(seq 50); do [ -s "$work/port" ] && break; sleep 0.1; done
 port=$(head -1 "$work/port")
@@ -35,6 +42,6 @@ read -r user sys wall rss < "$work/time"
 bus=$("$dir/rtuscope" stats "$work/bus.rtucap" --jsonl 2>/dev/null | head -1)
 frames=$(grep -o '"frames":[0-9]*' <<< "$bus" | cut -d: -f2)
 busy=$(grep -o '"utilisation_pct":[0-9.]*' <<< "$bus" | cut -d: -f2)
-awk -v u="$user" -v s="$sys" -v w="$wall" -v r="$rss" -v f="$frames" -v b="$busy" 'BEGIN {
-    printf "watch, 115200 baud, %.0f s: %d frames (%.0f/s), line %.0f %% busy; CPU %.1f %% of one core (user %.2f s, sys %.2f s), peak RSS %.1f MiB\n",
-        w, f, f / w, b, (u + s) / w * 100, u, s, r / 1024 }'
+awk -v u="$user" -v s="$sys" -v w="$wall" -v r="$rss" -v f="$frames" -v b="$busy" -v t="$traffic" 'BEGIN {
+    printf "watch, 115200 baud, %s, %.0f s: %d frames (%.0f/s), line %.0f %% busy; CPU %.1f %% of one core (user %.2f s, sys %.2f s), peak RSS %.1f MiB\n",
+        t, w, f, f / w, b, (u + s) / w * 100, u, s, r / 1024 }'
