@@ -300,6 +300,7 @@ std::uint32_t BusState::update(RegisterKey key, std::string_view name, std::stri
                       const Record& record, bool write) {
     const std::uint32_t slot = slot_for(key);
     touch(slot);
+    updated_.push_back(slot);
     RegisterState& r = slots_[slot];
     r.name = intern(name);
     r.unit = intern(unit);
@@ -413,6 +414,7 @@ std::vector<std::string> BusState::anomalies() const {
 }
 
 void BusState::add(const Record& record) {
+    updated_.clear();
     stats_.add(record);
     const Frame& f = record.frame;
     const Nanos at = f.start;

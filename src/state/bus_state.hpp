@@ -174,6 +174,12 @@ class BusState {
     // A slave's registers, by table and address.
     [[nodiscard]] std::vector<const RegisterState*> registers(std::uint8_t slave) const;
     [[nodiscard]] const RegisterState* find(RegisterKey key) const;
+    // Every register by slot (0 .. slot_count()-1): a slot keeps its register until the
+    // register is forgotten at the cap, then holds another (its key says which).
+    [[nodiscard]] std::size_t slot_count() const { return slots_.size(); }
+    [[nodiscard]] const RegisterState& at_slot(std::uint32_t slot) const { return slots_[slot]; }
+    // The slots of the registers the last add() set, in the record's order.
+    [[nodiscard]] const std::vector<std::uint32_t>& updated_slots() const { return updated_; }
     // Its last write; nullptr if it was never written.
     [[nodiscard]] const RegisterWrite* write(const RegisterState& r) const;
     [[nodiscard]] std::size_t register_count() const { return index_.size(); }
@@ -212,6 +218,7 @@ class BusState {
     std::vector<RegisterState> slots_;
     // Each slot's key, packed: registers() scans these 4 bytes a slot, not the slots.
     std::vector<std::uint32_t> slot_keys_;
+    std::vector<std::uint32_t> updated_;
     SlotIndex index_{kMaxRegisters};
     // Registers are seldom written: their writes apart, by slot.
     std::unordered_map<std::uint32_t, RegisterWrite> writes_;

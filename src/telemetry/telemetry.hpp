@@ -1,0 +1,63 @@
+// Stage 5c, telemetry: the bus's state (state/bus_state.hpp) delivered, read-only, to the
+// systems people already run: an MQTT broker (mqtt.hpp, with Home Assistant discovery)
+// and Prometheus (metrics.hpp). The pipeline's thread feeds the state through
+// TelemetrySink; each exporter does its network work on threads of its own, so that a
+// slow or absent server never delays decoding or recording.
+#pragma once
+
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "pipeline.hpp"
+#include "state/bus_state.hpp"
+
+namespace rtuscope {
+
+// The state the exporters read. The pipeline's thread writes it under `mutex`; another
+// thread (a scrape) reads it under the same mutex.
+struct SharedState {
+    std::mutex mutex;
+    BusState state;
+};
+
+// One destination. Every call comes on the pipeline's thread with the state's mutex held,
+// so an exporter reads the state freely here and must not block (no network I/O).
+class Exporter {
+  public:
+    virtual ~Exporter() = default;
+    virtual void begin(const BusState& /*state*/) {}
+    // `record` has just gone into `state`; state.updated_slots() are the registers it set.
+    virtual void record(const BusState& state, const Record& record) = 0;
+    // Time passed with nothing on the line (a live run's idle tick): time-driven work.
+    virtual void tick(const BusState& /*state*/, Nanos /*now*/) {}
+    // The input ended or the run was stopped: what is queued is sent (within a bound).
+    virtual void end(const BusState& /*state*/) {}
+    // One line for the end of the run ("mqtt: 1203 messages published, 0 dropped");
+    // empty when there is nothing to say.
+    [[nodiscard]] virtual std::string summary() const { return {}; }
+};
+
+// Feeds the records into the shared state and hands each to the exporters; at the end,
+// their summaries go to stderr.
+class TelemetrySink final : public RecordSink {
+  public:
+    TelemetrySink(std::shared_ptr<SharedState> shared,
+                  std::vector<std::unique_ptr<Exporter>> exporters)
+        : shared_(std::move(shared)), exporters_(std::move(exporters)) {}
+    void begin(const SessionInfo& session) override;
+    void record(const Record& record) override;
+    void idle(Nanos now) override;
+    void end(const Totals& totals, const std::vector<std::string>& remarks) override;
+
+  private:
+    std::shared_ptr<SharedState> shared_;
+    std::vector<std::unique_ptr<Exporter>> exporters_;
+};
+
+// "ttyUSB0" of "/dev/ttyUSB0", "field_log" of "logs/field log.txt": a name for topics and
+// labels, every character outside [A-Za-z0-9_-] replaced by '_'.
+std::string topic_name(std::string_view text);
+
+}  // namespace rtuscope

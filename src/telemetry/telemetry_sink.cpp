@@ -1,0 +1,52 @@
+#include <fmt/format.h>
+
+#include <cstdio>
+
+#include "telemetry/telemetry.hpp"
+
+namespace rtuscope {
+
+void TelemetrySink::begin(const SessionInfo& session) {
+    const std::lock_guard lock(shared_->mutex);
+    shared_->state.begin(session);
+    for (auto& e : exporters_) e->begin(shared_->state);
+}
+
+void TelemetrySink::record(const Record& record) {
+    const std::lock_guard lock(shared_->mutex);
+    shared_->state.add(record);
+    for (auto& e : exporters_) e->record(shared_->state, record);
+}
+
+void TelemetrySink::idle(Nanos now) {
+    const std::lock_guard lock(shared_->mutex);
+    for (auto& e : exporters_) e->tick(shared_->state, now);
+}
+
+void TelemetrySink::end(const Totals& /*totals*/, const std::vector<std::string>& /*remarks*/) {
+    const std::lock_guard lock(shared_->mutex);
+    shared_->state.refresh();
+    for (auto& e : exporters_) {
+        e->end(shared_->state);
+        if (const std::string s = e->summary(); !s.empty()) fmt::print(stderr, "rtuscope: {}\n", s);
+    }
+}
+
+std::string topic_name(std::string_view text) {
+    // The base name: what follows the last '/', without a file's extension.
+    if (const auto slash = text.rfind('/'); slash != std::string_view::npos) {
+        text.remove_prefix(slash + 1);
+    }
+    if (const auto dot = text.rfind('.'); dot != std::string_view::npos && dot > 0) {
+        text = text.substr(0, dot);
+    }
+    std::string out(text);
+    for (char& c : out) {
+        const bool keep = (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') ||
+                          (c >= '0' && c <= '9') || c == '_' || c == '-';
+        if (!keep) c = '_';
+    }
+    return out.empty() ? std::string("bus") : out;
+}
+
+}  // namespace rtuscope
