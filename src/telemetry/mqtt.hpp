@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstddef>
+#include <atomic>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -34,6 +35,11 @@ struct MqttOptions {
     bool ha_discovery = false;         // --ha-discovery
     std::string ha_prefix = "homeassistant";
     std::size_t queue_limit = 10000;   // messages waiting; beyond, the oldest are dropped
+    // --mqtt-required: a broker that refuses the connection (credentials, TLS) stops the
+    // run (sets *stop; failed() is then true, and the command exits 1) instead of going
+    // on without MQTT.
+    bool required = false;
+    std::atomic<bool>* stop = nullptr;
 };
 
 // Connects in the background (never blocking the caller) and publishes until destroyed.

@@ -37,6 +37,8 @@ class Exporter {
     // One line for the end of the run ("mqtt: 1203 messages published, 0 dropped");
     // empty when there is nothing to say.
     [[nodiscard]] virtual std::string summary() const { return {}; }
+    // It could not do its job and was required to (--mqtt-required): the run exits 1.
+    [[nodiscard]] virtual bool failed() const { return false; }
 };
 
 // Feeds the records into the shared state and hands each to the exporters; at the end,
