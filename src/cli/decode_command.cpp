@@ -8,6 +8,7 @@
 #include "errors.hpp"
 #include "input/sources.hpp"
 #include "output_options.hpp"
+#include "telemetry_options.hpp"
 #include "stop_signals.hpp"
 
 namespace rtuscope::cli {
@@ -18,6 +19,7 @@ struct DecodeArgs {
     std::string input_format = "auto";
     std::vector<std::uint16_t> rtu_ports;
     OutputArgs output;
+    TelemetryArgs telemetry;
 };
 
 int run_decode(const DecodeArgs& args) {
@@ -37,6 +39,9 @@ int run_decode(const DecodeArgs& args) {
         return print_error(bounds.error()), 2;
     }
 
+    auto telemetry = attach_telemetry(args.telemetry, args.file, *decoding, exit_code);
+    if (!telemetry) return exit_code;
+
     // Ctrl-C or SIGTERM stop at a record boundary: every output flushed and closed (the
     // --pcap file too), the summary printed, then the shell's status for the signal.
     install_stop_handlers();
@@ -50,9 +55,11 @@ int run_decode(const DecodeArgs& args) {
             fmt::print(stderr, "rtuscope: note: {}: {}\n", args.file, remark);
         }
     }
+    const int telemetry_code = finish_telemetry(*telemetry);
     if (!status) return print_error(status.error()), 1;
     if (Status pcap = pcap_status(*decoding); !pcap) return print_error(pcap.error()), 1;
-    return stop_signal() != 0 ? 128 + stop_signal() : 0;
+    if (stop_signal() != 0) return 128 + stop_signal();
+    return telemetry_code;
 }
 
 }  // namespace
@@ -86,6 +93,7 @@ void add_decode_command(CLI::App& app, int& exit_code) {
         ->check(CLI::IsMember({"auto", "capture", "raw", "hex", "pcap"}));
     add_rtu_port_option(*cmd, args->rtu_ports);
     add_output_options(*cmd, args->output);
+    add_telemetry_options(*cmd, args->telemetry, false);
     cmd->callback([args, &exit_code] { exit_code = run_decode(*args); });
 }
 

@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -24,6 +25,7 @@ namespace {
 void add_live_options(CLI::App& cmd, LiveArgs& args) {
     add_recording_options(cmd, args);
     add_output_options(cmd, args.output);
+    add_telemetry_options(cmd, args.telemetry);
 }
 
 }  // namespace
@@ -118,7 +120,10 @@ int run_sniff(SniffArgs args) {
     TtyOptions tty;
     tty.ports = args.ports;
     install_stop_handlers();
-    return run_live(args.live, *decoding, tty);
+    auto telemetry = attach_telemetry(args.live.telemetry, args.ports.front(), *decoding, exit_code);
+    if (!telemetry) return exit_code;
+    const int code = run_live(args.live, *decoding, tty);
+    return std::max(code, finish_telemetry(*telemetry));
 }
 
 struct DemoArgs {
@@ -134,11 +139,14 @@ int run_demo(DemoArgs args) {
     auto decoding = prepare_decoding(args.live.output, exit_code);
     if (!decoding) return exit_code;
     install_stop_handlers();
-    return with_demo_bus(live_line(*decoding), [&](const std::string& port) {
+    auto telemetry = attach_telemetry(args.live.telemetry, "demo", *decoding, exit_code);
+    if (!telemetry) return exit_code;
+    const int code = with_demo_bus(live_line(*decoding), [&](const std::string& port) {
         TtyOptions tty;
         tty.ports = {port};
         return run_live(args.live, *decoding, tty);
     });
+    return std::max(code, finish_telemetry(*telemetry));
 }
 
 }  // namespace

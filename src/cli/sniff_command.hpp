@@ -8,6 +8,7 @@
 
 #include "input/tty.hpp"
 #include "output_options.hpp"
+#include "telemetry_options.hpp"
 
 namespace rtuscope::cli {
 
@@ -16,6 +17,7 @@ void add_demo_command(CLI::App& app, int& exit_code);
 
 struct LiveArgs {
     OutputArgs output;
+    TelemetryArgs telemetry;
     std::string write_file;
     double seconds = 0;  // 0: until stopped
 };

@@ -4,6 +4,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <memory>
 #include <string>
@@ -13,7 +14,9 @@
 #include "input/paced_source.hpp"
 #include "input/sources.hpp"
 #include "sniff_command.hpp"
+#include "output/filter.hpp"
 #include "stop_signals.hpp"
+#include "telemetry_options.hpp"
 #include "watch/watch.hpp"
 
 namespace rtuscope::cli {
@@ -46,6 +49,21 @@ std::unique_ptr<Display> make_display(const WatchArgs& args, bool replay) {
     return make_dashboard(options);
 }
 
+// The state the display shows, fed by the telemetry sink (whose exporters the options
+// may ask for), the pipeline's only sink until the display's joins it.
+std::optional<Telemetry> watch_telemetry(const WatchArgs& args, std::string_view input,
+                                         Decoding& decoding, int& exit_code) {
+    decoding.sink.reset();
+    return attach_telemetry(args.live.telemetry, input, decoding, exit_code, true);
+}
+
+void add_watch_sink(Decoding& decoding, const Telemetry& telemetry, Display& display) {
+    std::vector<std::unique_ptr<RecordSink>> sinks;
+    sinks.push_back(std::move(decoding.sink));
+    sinks.push_back(std::make_unique<WatchSink>(*telemetry.shared, display));
+    decoding.sink = make_tee_sink(std::move(sinks));
+}
+
 // A capture, dump, log or pcap replayed at its own pace (or at once with --speed max).
 int watch_file(const WatchArgs& args, double speed) {
     auto opened = open_source(args.inputs.front(), InputFormat::automatic, PcapOptions{args.rtu_ports});
@@ -57,15 +75,19 @@ int watch_file(const WatchArgs& args, double speed) {
     if (speed > 0) source = pace_source(std::move(source), speed);
     install_stop_handlers();
     decoding->options.stop = &g_stop;
-    BusState state;
+    auto telemetry = watch_telemetry(args, args.inputs.front(), *decoding, exit_code);
+    if (!telemetry) return exit_code;
     Status status = ok_status();
     {
         const std::unique_ptr<Display> display = make_display(args, true);
-        WatchSink sink(state, *display);
-        status = run_pipeline(*source, decoding->options, sink);
+        add_watch_sink(*decoding, *telemetry, *display);
+        status = run_pipeline(*source, decoding->options, *decoding->sink);
+        decoding->sink.reset();  // the display's last draw, before it goes
     }
+    const int telemetry_code = finish_telemetry(*telemetry);
     if (!status) return print_error(status.error()), 1;
-    return stop_signal() != 0 ? 128 + stop_signal() : 0;
+    if (stop_signal() != 0) return 128 + stop_signal();
+    return telemetry_code;
 }
 
 int watch_live(WatchArgs args) {
@@ -74,9 +96,11 @@ int watch_live(WatchArgs args) {
     auto decoding = prepare_decoding(args.live.output, exit_code);
     if (!decoding) return exit_code;
     install_stop_handlers();
-    BusState state;
+    auto telemetry = watch_telemetry(args, args.demo ? "demo" : args.inputs.front(), *decoding,
+                                     exit_code);
+    if (!telemetry) return exit_code;
     const std::unique_ptr<Display> display = make_display(args, false);
-    decoding->sink = std::make_unique<WatchSink>(state, *display);
+    add_watch_sink(*decoding, *telemetry, *display);
     auto run = [&](std::vector<std::string> ports) {
         TtyOptions tty;
         tty.ports = std::move(ports);
@@ -85,8 +109,9 @@ int watch_live(WatchArgs args) {
     const int code = args.demo ? with_demo_bus(live_line(*decoding),
                                                [&](const std::string& port) { return run({port}); })
                                : run(args.inputs);
+    decoding->sink.reset();  // the display's last draw, before it goes
     // A live run ends by being stopped: a signal is its normal end, as for sniff.
-    return code;
+    return std::max(code, finish_telemetry(*telemetry));
 }
 
 int run_watch(WatchArgs args) {
@@ -142,6 +167,7 @@ void add_watch_command(CLI::App& app, int& exit_code) {
     add_rtu_port_option(*cmd, args->rtu_ports);
     add_recording_options(*cmd, args->live);
     add_watch_options(*cmd, args->live.output);
+    add_telemetry_options(*cmd, args->live.telemetry);
     cmd->callback([args, &exit_code] { exit_code = run_watch(*args); });
 }
 

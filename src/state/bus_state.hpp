@@ -14,6 +14,7 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <mutex>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -241,6 +242,13 @@ class BusState {
     std::string scratch_;     // intern()'s
     std::string value_text_;  // a value without a profile: its word in decimal
     std::string raw_text_;    // and in hex
+};
+
+// The state shared with other threads (a dashboard's, an exporter's): the pipeline's
+// thread writes it under `mutex`, and they read it under the same mutex.
+struct SharedState {
+    std::mutex mutex;
+    BusState state;
 };
 
 }  // namespace rtuscope

@@ -15,13 +15,6 @@
 
 namespace rtuscope {
 
-// The state the exporters read. The pipeline's thread writes it under `mutex`; another
-// thread (a scrape) reads it under the same mutex.
-struct SharedState {
-    std::mutex mutex;
-    BusState state;
-};
-
 // One destination. Every call comes on the pipeline's thread with the state's mutex held,
 // so an exporter reads the state freely here and must not block (no network I/O).
 class Exporter {
@@ -41,8 +34,9 @@ class Exporter {
     [[nodiscard]] virtual bool failed() const { return false; }
 };
 
-// Feeds the records into the shared state and hands each to the exporters; at the end,
-// their summaries go to stderr.
+// Feeds the records into the shared state and hands each to the exporters. The run's
+// command prints their summaries once the run is over (a dashboard may hold the terminal
+// until then).
 class TelemetrySink final : public RecordSink {
   public:
     TelemetrySink(std::shared_ptr<SharedState> shared,
@@ -52,6 +46,9 @@ class TelemetrySink final : public RecordSink {
     void record(const Record& record) override;
     void idle(Nanos now) override;
     void end(const Totals& totals, const std::vector<std::string>& remarks) override;
+    [[nodiscard]] const std::vector<std::unique_ptr<Exporter>>& exporters() const {
+        return exporters_;
+    }
 
   private:
     std::shared_ptr<SharedState> shared_;

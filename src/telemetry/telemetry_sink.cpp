@@ -1,7 +1,3 @@
-#include <fmt/format.h>
-
-#include <cstdio>
-
 #include "telemetry/telemetry.hpp"
 
 namespace rtuscope {
@@ -26,10 +22,7 @@ void TelemetrySink::idle(Nanos now) {
 void TelemetrySink::end(const Totals& /*totals*/, const std::vector<std::string>& /*remarks*/) {
     const std::lock_guard lock(shared_->mutex);
     shared_->state.refresh();
-    for (auto& e : exporters_) {
-        e->end(shared_->state);
-        if (const std::string s = e->summary(); !s.empty()) fmt::print(stderr, "rtuscope: {}\n", s);
-    }
+    for (auto& e : exporters_) e->end(shared_->state);
 }
 
 std::string topic_name(std::string_view text) {

@@ -79,16 +79,24 @@ class Dashboard final : public Display {
         draw(state, now);
     }
 
-    void finish(BusState& state, Nanos now) override {
+    void finish(SharedState& shared, Nanos now) override {
         ended_ = true;
+        BusState& state = shared.state;
+        std::unique_lock lock(shared.mutex);
+        state.refresh();
         draw(state, now);
         // A replay that reached its end stays on screen until `q`; a stop (q, a signal,
         // --seconds) ends at once.
         const bool stopped = quit_ || (options_.quit != nullptr && options_.quit->load());
         if (options_.replay && !stopped) {
-            nodelay(stdscr, FALSE);
-            timeout(500);
             while (!quit_ && (options_.quit == nullptr || !options_.quit->load())) {
+                // Up to 500 ms for a key, without the state held; then the keys at once.
+                lock.unlock();
+                timeout(500);
+                const int key = getch();
+                nodelay(stdscr, TRUE);
+                lock.lock();
+                if (key != ERR) ungetch(key);
                 read_keys(state, now);
                 draw(state, now);
             }

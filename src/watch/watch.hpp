@@ -19,8 +19,9 @@ class Display {
   public:
     virtual ~Display() = default;
     virtual void show(BusState& state, Nanos now) = 0;
-    // The input ended (or the run was stopped): the last state.
-    virtual void finish(BusState& state, Nanos now) = 0;
+    // The input ended (or the run was stopped): the last state. Called without the
+    // state's mutex: a replay's last screen may wait for `q` while a scrape reads it.
+    virtual void finish(SharedState& shared, Nanos now) = 0;
 };
 
 // Tables as text on `out` each time `interval` passes on the records' clock, and at the
@@ -35,17 +36,18 @@ struct DashboardOptions {
 // The full-screen dashboard on the terminal (ncurses); draws at most 10 times a second.
 std::unique_ptr<Display> make_dashboard(const DashboardOptions& options);
 
-// The pipeline's sink for `watch`: records into the state, the state onto the display.
+// The pipeline's sink for `watch`: the state onto the display. Another sink (the
+// telemetry sink, before this one) feeds the records into the state.
 class WatchSink final : public RecordSink {
   public:
-    WatchSink(BusState& state, Display& display) : state_(state), display_(display) {}
-    void begin(const SessionInfo& session) override { state_.begin(session); }
+    WatchSink(SharedState& shared, Display& display) : shared_(shared), display_(display) {}
+    void begin(const SessionInfo& /*session*/) override {}
     void record(const Record& record) override;
     void idle(Nanos now) override;
     void end(const Totals& totals, const std::vector<std::string>& remarks) override;
 
   private:
-    BusState& state_;
+    SharedState& shared_;
     Display& display_;
     Nanos now_ = kNoTime;
 };

@@ -6,22 +6,23 @@
 
 namespace rtuscope {
 
-void WatchSink::record(const Record& record) {
-    state_.add(record);
-    if (has_time(state_.last_time()) && (!has_time(now_) || state_.last_time() > now_)) {
-        now_ = state_.last_time();
+void WatchSink::record(const Record& /*record*/) {
+    const std::lock_guard lock(shared_.mutex);
+    const BusState& state = shared_.state;
+    if (has_time(state.last_time()) && (!has_time(now_) || state.last_time() > now_)) {
+        now_ = state.last_time();
     }
-    display_.show(state_, now_);
+    display_.show(shared_.state, now_);
 }
 
 void WatchSink::idle(Nanos now) {
+    const std::lock_guard lock(shared_.mutex);
     if (has_time(now) && (!has_time(now_) || now > now_)) now_ = now;
-    display_.show(state_, now_);
+    display_.show(shared_.state, now_);
 }
 
 void WatchSink::end(const Totals& /*totals*/, const std::vector<std::string>& /*remarks*/) {
-    state_.refresh();
-    display_.finish(state_, now_);
+    display_.finish(shared_, now_);
 }
 
 namespace {
@@ -42,7 +43,10 @@ class PlainDisplay final : public Display {
         next_ = now - next_ >= interval_ ? now + interval_ : next_ + interval_;
     }
 
-    void finish(BusState& state, Nanos now) override { print(state, now); }
+    void finish(SharedState& shared, Nanos now) override {
+        const std::lock_guard lock(shared.mutex);
+        print(shared.state, now);
+    }
 
   private:
     void print(BusState& state, Nanos now) {
