@@ -38,7 +38,8 @@ for _ in $(seq 50); do
     sleep 0.1
 done
 sub() {  # the retained messages under topic filter $1 (one line each: topic payload)
-    mosquitto_sub -h 127.0.0.1 -p "$port" -t "$1" -v -W 2 --retained-only 2>/dev/null
+    # -W: it ends by timing out (status 27), which is no failure here.
+    mosquitto_sub -h 127.0.0.1 -p "$port" -t "$1" -v -W 1 --retained-only 2>/dev/null || true
 }
 
 # The demo for 6 s: values, health, discovery.
@@ -69,9 +70,8 @@ grep -q 'mqtt: [0-9]* messages published, 0 dropped' "$work/demo.err" ||
 # Killed: the broker publishes its last will.
 "$rtuscope" demo --mqtt "mqtt://127.0.0.1:$port/killed" >/dev/null 2>&1 &
 pid=$!
-for _ in $(seq 50); do
+for _ in $(seq 20); do
     sub 'killed/demo/$status' | grep -q online && break
-    sleep 0.1
 done
 sub 'killed/demo/$status' | grep -q online || fail "the sniffer never came online"
 kill -KILL $pid
@@ -83,7 +83,7 @@ sub 'killed/demo/$status' | grep -q offline || fail "no last will after SIGKILL"
 RTUSCOPE_MQTT_USERNAME=field RTUSCOPE_MQTT_PASSWORD=wrong \
     "$rtuscope" demo --seconds 3 --mqtt "mqtt://127.0.0.1:$port/auth" --csv \
     >"$work/auth.out" 2>"$work/auth.err" || fail "a refused password stopped the run"
-[ "$(grep -c 'refused' "$work/auth.err")" -eq 1 ] ||
+[ "$(grep -c 'refused the connection' "$work/auth.err")" -eq 1 ] ||
     fail "not one line about the refusal: $(cat "$work/auth.err")"
 [ "$(wc -l <"$work/auth.out")" -gt 10 ] || fail "decoding did not go on without MQTT"
 RTUSCOPE_MQTT_USERNAME=field RTUSCOPE_MQTT_PASSWORD=wrong \
