@@ -592,6 +592,53 @@ TEST(Mqtt, RefusedConnectionSaysSoOnceAndFailsWhenRequired) {
         << ok.exporter->summary();
 }
 
+// mqtts:// with the CA that signed the broker's certificate connects; with another CA the
+// broker is not trusted: one line says why, and a required exporter fails the run.
+TEST(Mqtt, TlsConnectsWithTheRightCaAndIsRefusedWithAnother) {
+    REQUIRE_MOSQUITTO();
+    test::TempDir dir;
+    const auto server = test::make_certificates(dir, "server");
+    const auto other = test::make_certificates(dir, "other");
+    if (!server || !other) GTEST_SKIP() << "openssl could not make test certificates";
+    Broker broker(std::nullopt, server);
+    ASSERT_TRUE(broker.start()) << broker.log();
+    const std::string url = fmt::format("mqtts://127.0.0.1:{}", broker.port());
+    const Bus pdu = bus_of({{1, "pdu485"}});
+    const auto decoded = decode(seed("pdu485.hex"), pdu);
+
+    MqttOptions o = options_for(url, "tls");
+    o.ca_file = server->ca;
+    {
+        Exporting e(o);
+        ASSERT_NE(e.exporter, nullptr);
+        e.feed(decoded);
+        e.end();
+        const std::string summary = e.exporter->summary();
+        EXPECT_EQ(summary.find("never connected"), std::string::npos) << summary << broker.log();
+        EXPECT_EQ(summary.find("mqtt: 0 messages"), std::string::npos) << summary;
+        EXPECT_NE(summary.find(" 0 dropped"), std::string::npos) << summary;
+    }
+
+    std::atomic<bool> stop{false};
+    o.ca_file = other->ca;
+    o.required = true;
+    o.stop = &stop;
+    testing::internal::CaptureStderr();
+    Exporting e(o);
+    ASSERT_NE(e.exporter, nullptr);
+    const auto deadline = std::chrono::steady_clock::now() + 5s;
+    while (!stop && std::chrono::steady_clock::now() < deadline) std::this_thread::sleep_for(10ms);
+    std::this_thread::sleep_for(800ms);  // and retries
+    const std::string err = testing::internal::GetCapturedStderr();
+    EXPECT_TRUE(stop);
+    EXPECT_TRUE(e.exporter->failed());
+    EXPECT_NE(err.find(fmt::format("rtuscope: mqtt: broker 127.0.0.1:{} refused the connection: TLS",
+                                   broker.port())),
+              std::string::npos)
+        << err;
+    EXPECT_EQ(std::count(err.begin(), err.end(), '\n'), 1) << err;
+}
+
 // No broker at all: the pipeline's calls return at once, the end comes within its bound,
 // and the summary says where it never connected.
 TEST(Mqtt, AnAbsentBrokerNeverBlocksThePipeline) {

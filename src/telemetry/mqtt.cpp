@@ -136,14 +136,16 @@ Result<MqttUrl> parse_mqtt_url(std::string_view text) {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-using namespace std::chrono_literals;
+using std::chrono::milliseconds;
+using std::chrono::seconds;
 
 constexpr int kKeepaliveSeconds = 30;
 constexpr int kLoopMilliseconds = 50;  // the longest a new message waits to go out
-constexpr auto kFirstRetry = 250ms;
-constexpr auto kLastRetry = 10s;
-constexpr auto kConnectTimeout = 10s;
-constexpr auto kFlushBound = 2s;
+constexpr auto kFirstRetry = milliseconds(250);
+constexpr auto kLastRetry = seconds(10);
+constexpr auto kConnectTimeout = seconds(10);
+constexpr auto kFlushBound = seconds(2);
+constexpr auto kDisconnectBound = milliseconds(500);
 constexpr std::size_t kMaxInflight = 1000;  // published, awaiting the broker's PUBACK
 constexpr Nanos kDefaultOffline = 30 * kNanosPerSecond;
 constexpr std::uint64_t kOfflineCycles = 3;
@@ -501,7 +503,7 @@ void Connection::run() {
         up = connected_;
     }
     if (up && mosquitto_disconnect(c) == MOSQ_ERR_SUCCESS) {
-        const auto deadline = Clock::now() + 500ms;
+        const auto deadline = Clock::now() + kDisconnectBound;
         while (mosquitto_socket(c) != -1 && Clock::now() < deadline) {
             if (mosquitto_loop(c, 20, 1) != MOSQ_ERR_SUCCESS) break;
         }
