@@ -230,10 +230,24 @@ TEST(Mqtt, RetainedValuesAreTheDecodedValuesWithTheirUnits) {
         const RegisterState* r;
     };
     std::vector<Expected> expected;
+    std::vector<std::string> commands;
     for (std::size_t i = 0; i < done.size(); ++i) {
         const BusState& state = done[i]->shared->state;
         for (const SlaveState* s : state.slaves()) {
             for (const RegisterState* r : state.registers(s->address)) {
+                // Commands written into number registers (clear the energy counter, all
+                // relays on): events, not values; checked below.
+                const Register* reg =
+                    s->profile == nullptr
+                        ? nullptr
+                        : s->profile->register_at(std::string(state.table_name(r->key.table)),
+                                                  r->key.address);
+                if (r->written && !r->numeric && reg != nullptr && reg->type != ValueType::enumeration &&
+                    reg->type != ValueType::bits && reg->type != ValueType::string) {
+                    commands.push_back(fmt::format("rtuscope/{}/{}/{}", topic_name(runs[i].first),
+                                                   s->address, state.text(r->name)));
+                    continue;
+                }
                 const std::string name(state.text(r->name));
                 expected.push_back(
                     {fmt::format("rtuscope/{}/{}/{}", topic_name(runs[i].first), s->address,
@@ -268,11 +282,21 @@ TEST(Mqtt, RetainedValuesAreTheDecodedValuesWithTheirUnits) {
     EXPECT_EQ(volts["unit"].string(), "V");
     EXPECT_EQ(volts["raw"].string(), "0x089D");
 
+    // A command word written into the energy counter is not its value: the last read is.
+    const Json energy = json_of(sub.last("rtuscope/pdu485/1/energy"));
+    EXPECT_DOUBLE_EQ(energy["value"].number(), 12345.0);
+    EXPECT_EQ(energy["unit"].string(), "kWh");
+    EXPECT_EQ(energy["raw"].string(), "0x0000 0x3039");
+
     const Json relay1 = json_of(sub.last("rtuscope/zyi-relay/5/relay1"));
     ASSERT_TRUE(relay1["value"].is_string());
     EXPECT_TRUE(relay1["value"].string() == "on" || relay1["value"].string() == "off");
 
     const auto retained = last_of_each(sub);
+    EXPECT_EQ(commands, (std::vector<std::string>{"rtuscope/pdu485/1/energy",
+                                                  "rtuscope/zyi-relay/5/all_off",
+                                                  "rtuscope/zyi-relay/5/all_on"}));
+    EXPECT_FALSE(retained.contains("rtuscope/zyi-relay/5/all_on"));
     for (const auto& [topic, state, r] : expected) {
         const auto it = retained.find(topic);
         ASSERT_NE(it, retained.end()) << topic;
@@ -413,6 +437,9 @@ TEST(Mqtt, WritesAreEventsThatAreNotRetained) {
     EXPECT_DOUBLE_EQ(alarm["value"].number(), 264.0);
     EXPECT_EQ(alarm["unit"].string(), "V");
     EXPECT_EQ(alarm["request"].number(), 5.0);  // the FC10 request is record 5
+    const Json clear = json_of(live.last("rtuscope/pdu/1/energy/$write"));
+    EXPECT_EQ(clear["value"].string(), "clear the energy counter");
+    EXPECT_EQ(clear["raw"].string(), "0xAABB");
     for (const auto& m : live.messages()) {
         if (m.topic.ends_with("/$write")) {
             EXPECT_FALSE(m.retained) << m.topic;
@@ -702,10 +729,17 @@ TEST(Mqtt, SlaveIsOfflineAfterThreeMissedPollCyclesAndOnlineAtItsNextAnswer) {
         if (m.topic == "rtuscope/t/1/$status" && (statuses.empty() || statuses.back() != m.payload)) {
             statuses.push_back(m.payload);
         }
+        if (m.topic == "rtuscope/t/1/$health") {
+            // The first request starts 9 characters before 0.000, at -0.009 s.
+            const Json health = json_of(m.payload);
+            ASSERT_TRUE(health["last_seen"].is_number()) << m.payload;
+            EXPECT_GT(health["last_seen"].number(), -0.01) << m.payload;
+        }
         if (m.topic == "rtuscope/t/1/voltage") {
             ++voltages;
             EXPECT_DOUBLE_EQ(json_of(m.payload)["value"].number(), 230.1);
             EXPECT_TRUE(json_of(m.payload)["time"].is_number());
+            EXPECT_GE(json_of(m.payload)["time"].number(), 0.0);
         }
     }
     EXPECT_EQ(statuses, (std::vector<std::string>{"online", "offline", "online"}));
