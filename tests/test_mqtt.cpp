@@ -666,6 +666,57 @@ TEST(Mqtt, TlsConnectsWithTheRightCaAndIsRefusedWithAnother) {
     EXPECT_EQ(std::count(err.begin(), err.end(), '\n'), 1) << err;
 }
 
+// Past BusState::kMaxRegisters the least recently updated register gives its slot to a
+// new one: that is a register never published, whatever value the slot held before.
+TEST(Mqtt, ARegisterInAReusedSlotIsPublishedAsANewRegister) {
+    REQUIRE_MOSQUITTO();
+    Broker broker;
+    ASSERT_TRUE(broker.start());
+    Subscriber sub(broker.port(), "rtuscope/evict/#");
+    ASSERT_TRUE(sub.ready());
+    const auto hex = [](const test::Bytes& b) {
+        std::string out;
+        for (const auto x : b) out += fmt::format(" {:02X}", x);
+        return out;
+    };
+    // Slave 1's 65536 holding registers, all 0, 125 a read; then slave 2's register 0,
+    // also 0, which takes the slot of slave 1's register 0.
+    std::string capture = "# rtuscope capture v1\n# serial 115200 8N1\n";
+    int second = 0;
+    const auto read = [&](std::uint8_t slave, unsigned start, unsigned count) {
+        capture += fmt::format("{}.000{}\n", second,
+                               hex(test::with_crc({slave, 3, static_cast<std::uint8_t>(start >> 8),
+                                                   static_cast<std::uint8_t>(start & 0xFF), 0,
+                                                   static_cast<std::uint8_t>(count)})));
+        test::Bytes answer = {slave, 3, static_cast<std::uint8_t>(2 * count)};
+        answer.resize(answer.size() + 2 * count, 0);
+        capture += fmt::format("{}.100{}\n", second, hex(test::with_crc(answer)));
+        ++second;
+    };
+    for (unsigned start = 0; start < 65536; start += 125) read(1, start, std::min(125U, 65536 - start));
+    read(2, 0, 1);
+    const Bus none;
+    const auto decoded = decode_text(capture, none);
+
+    MqttOptions o = options_for(broker.url(), "evict");
+    o.interval = 1'000'000 * kNanosPerSecond;
+    o.queue_limit = 100;
+    Exporting e(o);
+    ASSERT_NE(e.exporter, nullptr);
+    // Connected first, so that the republish a connection brings comes before the records
+    // and does not publish the new register on its own.
+    ASSERT_TRUE(sub.wait([](const auto& all) { return !all.empty() && all.back().payload == "online"; }));
+    e.sink->begin(decoded.session);
+    for (const Record& r : decoded.records) e.sink->record(r);
+    ASSERT_EQ(e.shared->state.forgotten_registers(), 1U);
+    const auto payload = sub.last("rtuscope/evict/2/holding_0x0000");
+    ASSERT_TRUE(payload.has_value()) << "slave 2's register 0 was never published";
+    const Json reg = json_of(payload);
+    EXPECT_DOUBLE_EQ(reg["value"].number(), 0.0);
+    EXPECT_EQ(reg["raw"].string(), "0x0000");
+    e.end();
+}
+
 // No broker at all: the pipeline's calls return at once, the end comes within its bound,
 // and the summary says where it never connected.
 TEST(Mqtt, AnAbsentBrokerNeverBlocksThePipeline) {
