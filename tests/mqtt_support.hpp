@@ -4,6 +4,7 @@
 #pragma once
 
 #include <mosquitto.h>
+#include <fcntl.h>
 #include <netinet/in.h>
 #include <signal.h>
 #include <spawn.h>
@@ -66,13 +67,25 @@ inline bool port_open(std::uint16_t port) {
     return ok;
 }
 
-// Runs `program` with `args`; its exit status, -1 if it could not run.
-inline int run_program(const std::vector<std::string>& args) {
+// Starts args[0] with its output to `output` (a file, or /dev/null); 0 if it could not.
+inline pid_t spawn(const std::vector<std::string>& args, const std::string& output = "/dev/null") {
     std::vector<char*> argv;
     for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
     argv.push_back(nullptr);
+    posix_spawn_file_actions_t actions;
+    posix_spawn_file_actions_init(&actions);
+    posix_spawn_file_actions_addopen(&actions, 1, output.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
+    posix_spawn_file_actions_adddup2(&actions, 1, 2);
     pid_t pid = 0;
-    if (posix_spawn(&pid, argv[0], nullptr, nullptr, argv.data(), environ) != 0) return -1;
+    const int rc = posix_spawn(&pid, argv[0], &actions, nullptr, argv.data(), environ);
+    posix_spawn_file_actions_destroy(&actions);
+    return rc == 0 ? pid : 0;
+}
+
+// Runs args[0] with its arguments, quietly; its exit status, -1 if it could not run.
+inline int run_program(const std::vector<std::string>& args) {
+    const pid_t pid = spawn(args);
+    if (pid == 0) return -1;
     int status = 0;
     ::waitpid(pid, &status, 0);
     return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
@@ -86,10 +99,18 @@ class Broker {
         std::string name;
         std::string password;
     };
-    explicit Broker(std::optional<User> user = std::nullopt) : port_(free_port()) {
+    // A listener with TLS: the server's certificate, its key, and the CA that signed it.
+    struct Tls {
+        std::string ca;
+        std::string cert;
+        std::string key;
+    };
+    explicit Broker(std::optional<User> user = std::nullopt, std::optional<Tls> tls = std::nullopt)
+        : port_(free_port()) {
         std::string conf = fmt::format(
             "listener {} 127.0.0.1\npersistence false\nlog_dest file {}\n", port_,
             dir_.file("mosquitto.log"));
+        if (tls) conf += fmt::format("cafile {}\ncertfile {}\nkeyfile {}\n", tls->ca, tls->cert, tls->key);
         // As root, mosquitto would become the user "mosquitto", who cannot read this
         // directory.
         if (::geteuid() == 0) conf += "user root\n";
@@ -109,14 +130,8 @@ class Broker {
 
     // Starts it and waits until it listens; false if it does not within 3 s.
     bool start() {
-        std::vector<std::string> args = {kMosquitto, "-c", config_};
-        std::vector<char*> argv;
-        for (auto& a : args) argv.push_back(a.data());
-        argv.push_back(nullptr);
-        if (posix_spawn(&pid_, kMosquitto, nullptr, nullptr, argv.data(), environ) != 0) {
-            pid_ = 0;
-            return false;
-        }
+        pid_ = spawn({kMosquitto, "-c", config_}, dir_.file("mosquitto.log"));
+        if (pid_ == 0) return false;
         const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(3);
         while (std::chrono::steady_clock::now() < deadline) {
             if (port_open(port_)) return true;
@@ -154,6 +169,28 @@ class Broker {
     std::string config_;
     pid_t pid_ = 0;
 };
+
+// A CA and a server certificate it signed for 127.0.0.1 (openssl's command line), in
+// `dir`; nullopt when openssl is missing or fails.
+inline std::optional<Broker::Tls> make_certificates(const TempDir& dir, const std::string& name) {
+    const std::string openssl = "/usr/bin/openssl";
+    if (::access(openssl.c_str(), X_OK) != 0) return std::nullopt;
+    const auto f = [&](const std::string& what) { return dir.file(name + "-" + what); };
+    const std::string ext = dir.write(name + "-ext", "subjectAltName=IP:127.0.0.1\n");
+    const std::vector<std::vector<std::string>> steps = {
+        {openssl, "req", "-x509", "-newkey", "ec", "-pkeyopt", "ec_paramgen_curve:prime256v1",
+         "-nodes", "-keyout", f("ca.key"), "-out", f("ca.crt"), "-days", "2", "-subj",
+         "/CN=rtuscope test CA " + name},
+        {openssl, "req", "-newkey", "ec", "-pkeyopt", "ec_paramgen_curve:prime256v1", "-nodes",
+         "-keyout", f("server.key"), "-out", f("server.csr"), "-subj", "/CN=127.0.0.1"},
+        {openssl, "x509", "-req", "-in", f("server.csr"), "-CA", f("ca.crt"), "-CAkey", f("ca.key"),
+         "-CAcreateserial", "-out", f("server.crt"), "-days", "2", "-extfile", ext},
+    };
+    for (const auto& step : steps) {
+        if (run_program(step) != 0) return std::nullopt;
+    }
+    return Broker::Tls{f("ca.crt"), f("server.crt"), f("server.key")};
+}
 
 // Subscribes to a topic filter and keeps every message delivered, in order.
 class Subscriber {

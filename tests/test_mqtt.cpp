@@ -230,10 +230,24 @@ TEST(Mqtt, RetainedValuesAreTheDecodedValuesWithTheirUnits) {
         const RegisterState* r;
     };
     std::vector<Expected> expected;
+    std::vector<std::string> commands;
     for (std::size_t i = 0; i < done.size(); ++i) {
         const BusState& state = done[i]->shared->state;
         for (const SlaveState* s : state.slaves()) {
             for (const RegisterState* r : state.registers(s->address)) {
+                // Commands written into number registers (clear the energy counter, all
+                // relays on): events, not values; checked below.
+                const Register* reg =
+                    s->profile == nullptr
+                        ? nullptr
+                        : s->profile->register_at(std::string(state.table_name(r->key.table)),
+                                                  r->key.address);
+                if (r->written && !r->numeric && reg != nullptr && reg->type != ValueType::enumeration &&
+                    reg->type != ValueType::bits && reg->type != ValueType::string) {
+                    commands.push_back(fmt::format("rtuscope/{}/{}/{}", topic_name(runs[i].first),
+                                                   s->address, state.text(r->name)));
+                    continue;
+                }
                 const std::string name(state.text(r->name));
                 expected.push_back(
                     {fmt::format("rtuscope/{}/{}/{}", topic_name(runs[i].first), s->address,
@@ -268,11 +282,21 @@ TEST(Mqtt, RetainedValuesAreTheDecodedValuesWithTheirUnits) {
     EXPECT_EQ(volts["unit"].string(), "V");
     EXPECT_EQ(volts["raw"].string(), "0x089D");
 
+    // A command word written into the energy counter is not its value: the last read is.
+    const Json energy = json_of(sub.last("rtuscope/pdu485/1/energy"));
+    EXPECT_DOUBLE_EQ(energy["value"].number(), 12345.0);
+    EXPECT_EQ(energy["unit"].string(), "kWh");
+    EXPECT_EQ(energy["raw"].string(), "0x0000 0x3039");
+
     const Json relay1 = json_of(sub.last("rtuscope/zyi-relay/5/relay1"));
     ASSERT_TRUE(relay1["value"].is_string());
     EXPECT_TRUE(relay1["value"].string() == "on" || relay1["value"].string() == "off");
 
     const auto retained = last_of_each(sub);
+    EXPECT_EQ(commands, (std::vector<std::string>{"rtuscope/pdu485/1/energy",
+                                                  "rtuscope/zyi-relay/5/all_off",
+                                                  "rtuscope/zyi-relay/5/all_on"}));
+    EXPECT_FALSE(retained.contains("rtuscope/zyi-relay/5/all_on"));
     for (const auto& [topic, state, r] : expected) {
         const auto it = retained.find(topic);
         ASSERT_NE(it, retained.end()) << topic;
@@ -413,6 +437,9 @@ TEST(Mqtt, WritesAreEventsThatAreNotRetained) {
     EXPECT_DOUBLE_EQ(alarm["value"].number(), 264.0);
     EXPECT_EQ(alarm["unit"].string(), "V");
     EXPECT_EQ(alarm["request"].number(), 5.0);  // the FC10 request is record 5
+    const Json clear = json_of(live.last("rtuscope/pdu/1/energy/$write"));
+    EXPECT_EQ(clear["value"].string(), "clear the energy counter");
+    EXPECT_EQ(clear["raw"].string(), "0xAABB");
     for (const auto& m : live.messages()) {
         if (m.topic.ends_with("/$write")) {
             EXPECT_FALSE(m.retained) << m.topic;
@@ -592,6 +619,104 @@ TEST(Mqtt, RefusedConnectionSaysSoOnceAndFailsWhenRequired) {
         << ok.exporter->summary();
 }
 
+// mqtts:// with the CA that signed the broker's certificate connects; with another CA the
+// broker is not trusted: one line says why, and a required exporter fails the run.
+TEST(Mqtt, TlsConnectsWithTheRightCaAndIsRefusedWithAnother) {
+    REQUIRE_MOSQUITTO();
+    test::TempDir dir;
+    const auto server = test::make_certificates(dir, "server");
+    const auto other = test::make_certificates(dir, "other");
+    if (!server || !other) GTEST_SKIP() << "openssl could not make test certificates";
+    Broker broker(std::nullopt, server);
+    ASSERT_TRUE(broker.start()) << broker.log();
+    const std::string url = fmt::format("mqtts://127.0.0.1:{}", broker.port());
+    const Bus pdu = bus_of({{1, "pdu485"}});
+    const auto decoded = decode(seed("pdu485.hex"), pdu);
+
+    MqttOptions o = options_for(url, "tls");
+    o.ca_file = server->ca;
+    {
+        Exporting e(o);
+        ASSERT_NE(e.exporter, nullptr);
+        e.feed(decoded);
+        e.end();
+        const std::string summary = e.exporter->summary();
+        EXPECT_EQ(summary.find("never connected"), std::string::npos) << summary << broker.log();
+        EXPECT_EQ(summary.find("mqtt: 0 messages"), std::string::npos) << summary;
+        EXPECT_NE(summary.find(" 0 dropped"), std::string::npos) << summary;
+    }
+
+    std::atomic<bool> stop{false};
+    o.ca_file = other->ca;
+    o.required = true;
+    o.stop = &stop;
+    testing::internal::CaptureStderr();
+    Exporting e(o);
+    ASSERT_NE(e.exporter, nullptr);
+    const auto deadline = std::chrono::steady_clock::now() + 5s;
+    while (!stop && std::chrono::steady_clock::now() < deadline) std::this_thread::sleep_for(10ms);
+    std::this_thread::sleep_for(800ms);  // and retries
+    const std::string err = testing::internal::GetCapturedStderr();
+    EXPECT_TRUE(stop);
+    EXPECT_TRUE(e.exporter->failed());
+    EXPECT_NE(err.find(fmt::format("rtuscope: mqtt: broker 127.0.0.1:{} refused the connection: TLS",
+                                   broker.port())),
+              std::string::npos)
+        << err;
+    EXPECT_EQ(std::count(err.begin(), err.end(), '\n'), 1) << err;
+}
+
+// Past BusState::kMaxRegisters the least recently updated register gives its slot to a
+// new one: that is a register never published, whatever value the slot held before.
+TEST(Mqtt, ARegisterInAReusedSlotIsPublishedAsANewRegister) {
+    REQUIRE_MOSQUITTO();
+    Broker broker;
+    ASSERT_TRUE(broker.start());
+    Subscriber sub(broker.port(), "rtuscope/evict/#");
+    ASSERT_TRUE(sub.ready());
+    const auto hex = [](const test::Bytes& b) {
+        std::string out;
+        for (const auto x : b) out += fmt::format(" {:02X}", x);
+        return out;
+    };
+    // Slave 1's 65536 holding registers, all 0, 125 a read; then slave 2's register 0,
+    // also 0, which takes the slot of slave 1's register 0.
+    std::string capture = "# rtuscope capture v1\n# serial 115200 8N1\n";
+    int second = 0;
+    const auto read = [&](std::uint8_t slave, unsigned start, unsigned count) {
+        capture += fmt::format("{}.000{}\n", second,
+                               hex(test::with_crc({slave, 3, static_cast<std::uint8_t>(start >> 8),
+                                                   static_cast<std::uint8_t>(start & 0xFF), 0,
+                                                   static_cast<std::uint8_t>(count)})));
+        test::Bytes answer = {slave, 3, static_cast<std::uint8_t>(2 * count)};
+        answer.resize(answer.size() + 2 * count, 0);
+        capture += fmt::format("{}.100{}\n", second, hex(test::with_crc(answer)));
+        ++second;
+    };
+    for (unsigned start = 0; start < 65536; start += 125) read(1, start, std::min(125U, 65536 - start));
+    read(2, 0, 1);
+    const Bus none;
+    const auto decoded = decode_text(capture, none);
+
+    MqttOptions o = options_for(broker.url(), "evict");
+    o.interval = 1'000'000 * kNanosPerSecond;
+    o.queue_limit = 100;
+    Exporting e(o);
+    ASSERT_NE(e.exporter, nullptr);
+    // Connected first, so that the republish a connection brings comes before the records
+    // and does not publish the new register on its own.
+    ASSERT_TRUE(sub.wait([](const auto& all) { return !all.empty() && all.back().payload == "online"; }));
+    e.sink->begin(decoded.session);
+    for (const Record& r : decoded.records) e.sink->record(r);
+    ASSERT_EQ(e.shared->state.forgotten_registers(), 1U);
+    const auto payload = sub.last("rtuscope/evict/2/holding_0x0000");
+    ASSERT_TRUE(payload.has_value()) << "slave 2's register 0 was never published";
+    const Json reg = json_of(payload);
+    EXPECT_DOUBLE_EQ(reg["value"].number(), 0.0);
+    EXPECT_EQ(reg["raw"].string(), "0x0000");
+    e.end();
+}
+
 // No broker at all: the pipeline's calls return at once, the end comes within its bound,
 // and the summary says where it never connected.
 TEST(Mqtt, AnAbsentBrokerNeverBlocksThePipeline) {
@@ -655,10 +780,17 @@ TEST(Mqtt, SlaveIsOfflineAfterThreeMissedPollCyclesAndOnlineAtItsNextAnswer) {
         if (m.topic == "rtuscope/t/1/$status" && (statuses.empty() || statuses.back() != m.payload)) {
             statuses.push_back(m.payload);
         }
+        if (m.topic == "rtuscope/t/1/$health") {
+            // The first request starts 9 characters before 0.000, at -0.009 s.
+            const Json health = json_of(m.payload);
+            ASSERT_TRUE(health["last_seen"].is_number()) << m.payload;
+            EXPECT_GT(health["last_seen"].number(), -0.01) << m.payload;
+        }
         if (m.topic == "rtuscope/t/1/voltage") {
             ++voltages;
             EXPECT_DOUBLE_EQ(json_of(m.payload)["value"].number(), 230.1);
             EXPECT_TRUE(json_of(m.payload)["time"].is_number());
+            EXPECT_GE(json_of(m.payload)["time"].number(), 0.0);
         }
     }
     EXPECT_EQ(statuses, (std::vector<std::string>{"online", "offline", "online"}));

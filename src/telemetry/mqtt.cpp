@@ -136,14 +136,16 @@ Result<MqttUrl> parse_mqtt_url(std::string_view text) {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-using namespace std::chrono_literals;
+using std::chrono::milliseconds;
+using std::chrono::seconds;
 
 constexpr int kKeepaliveSeconds = 30;
 constexpr int kLoopMilliseconds = 50;  // the longest a new message waits to go out
-constexpr auto kFirstRetry = 250ms;
-constexpr auto kLastRetry = 10s;
-constexpr auto kConnectTimeout = 10s;
-constexpr auto kFlushBound = 2s;
+constexpr auto kFirstRetry = milliseconds(250);
+constexpr auto kLastRetry = seconds(10);
+constexpr auto kConnectTimeout = seconds(10);
+constexpr auto kFlushBound = seconds(2);
+constexpr auto kDisconnectBound = milliseconds(500);
 constexpr std::size_t kMaxInflight = 1000;  // published, awaiting the broker's PUBACK
 constexpr Nanos kDefaultOffline = 30 * kNanosPerSecond;
 constexpr std::uint64_t kOfflineCycles = 3;
@@ -501,7 +503,7 @@ void Connection::run() {
         up = connected_;
     }
     if (up && mosquitto_disconnect(c) == MOSQ_ERR_SUCCESS) {
-        const auto deadline = Clock::now() + 500ms;
+        const auto deadline = Clock::now() + kDisconnectBound;
         while (mosquitto_socket(c) != -1 && Clock::now() < deadline) {
             if (mosquitto_loop(c, 20, 1) != MOSQ_ERR_SUCCESS) break;
         }
@@ -576,7 +578,8 @@ bool is_json_number(std::string_view s) {
 std::string json_time(Nanos t) {
     if (!has_time(t)) return "null";
     const std::int64_t ms = floor_div(t, 1'000'000);
-    return fmt::format("{}.{:03}", floor_div(ms, 1000), floor_mod(ms, 1000));
+    const std::int64_t size = ms < 0 ? -ms : ms;
+    return fmt::format("{}{}.{:03}", ms < 0 ? "-" : "", size / 1000, size % 1000);
 }
 
 std::string json_ms(std::optional<Nanos> d) {
@@ -629,6 +632,13 @@ bool is_number_type(ValueType type) {
             break;
     }
     return false;
+}
+
+// The profile's entry of a register, nullptr without one.
+const Register* profile_register(const BusState& state, const RegisterState& r) {
+    const SlaveState* slave = state.slave(r.key.slave);
+    if (slave == nullptr || slave->profile == nullptr) return nullptr;
+    return slave->profile->register_at(std::string(state.table_name(r.key.table)), r.key.address);
 }
 
 struct Binary {
@@ -764,6 +774,12 @@ std::string MqttExporter::value_payload(const BusState& state, const RegisterSta
 void MqttExporter::publish_value(const BusState& state, std::uint32_t slot, bool always) {
     const RegisterState& r = state.at_slot(slot);
     if (r.raw_words == 0) return;  // a slot not set yet
+    // A command word written into a number register ("clear the energy counter") is an
+    // event ($write), not the register's value.
+    if (r.written && !r.numeric) {
+        const Register* reg = profile_register(state, r);
+        if (reg != nullptr && is_number_type(reg->type)) return;
+    }
     if (published_.size() < state.slot_count()) published_.resize(state.slot_count());
     Published& p = published_[slot];
     const bool fresh = !p.seen || p.key != r.key.packed();  // a slot reused for another
@@ -785,10 +801,7 @@ void MqttExporter::publish_write(const BusState& state, const RegisterState& r,
 void MqttExporter::publish_discovery(const BusState& state, const RegisterState& r) {
     const SlaveState* slave = state.slave(r.key.slave);
     const Profile* profile = slave != nullptr ? slave->profile : nullptr;
-    const Register* reg =
-        profile != nullptr
-            ? profile->register_at(std::string(state.table_name(r.key.table)), r.key.address)
-            : nullptr;
+    const Register* reg = profile_register(state, r);
     const std::string topic_level = register_topic(state, r);
     const std::string id = fmt::format("rtuscope_{}_{}_{}", bus_, r.key.slave, topic_level);
     const std::string slave_id = fmt::format("rtuscope_{}_{}", bus_, r.key.slave);
