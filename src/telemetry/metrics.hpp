@@ -29,4 +29,7 @@ Result<std::string> parse_listen_address(std::string_view text);
 // the user, and for tests that asked for port 0.
 std::string metrics_endpoint(const Exporter& metrics);
 
+// What a scrape of /metrics reads now, in the Prometheus text format.
+std::string metrics_text(const Exporter& metrics);
+
 }  // namespace rtuscope
