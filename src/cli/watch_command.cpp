@@ -77,13 +77,10 @@ int watch_file(const WatchArgs& args, double speed) {
     decoding->options.stop = &g_stop;
     auto telemetry = watch_telemetry(args, args.inputs.front(), *decoding, exit_code);
     if (!telemetry) return exit_code;
-    Status status = ok_status();
-    {
-        const std::unique_ptr<Display> display = make_display(args, true);
-        add_watch_sink(*decoding, *telemetry, *display);
-        status = run_pipeline(*source, decoding->options, *decoding->sink);
-        decoding->sink.reset();  // the display's last draw, before it goes
-    }
+    const std::unique_ptr<Display> display = make_display(args, true);
+    add_watch_sink(*decoding, *telemetry, *display);
+    const Status status = run_pipeline(*source, decoding->options, *decoding->sink);
+    // The display has ended (a dashboard gave the terminal back): the summaries go there.
     const int telemetry_code = finish_telemetry(*telemetry);
     if (!status) return print_error(status.error()), 1;
     if (stop_signal() != 0) return 128 + stop_signal();
@@ -109,7 +106,6 @@ int watch_live(WatchArgs args) {
     const int code = args.demo ? with_demo_bus(live_line(*decoding),
                                                [&](const std::string& port) { return run({port}); })
                                : run(args.inputs);
-    decoding->sink.reset();  // the display's last draw, before it goes
     // A live run ends by being stopped: a signal is its normal end, as for sniff.
     return std::max(code, finish_telemetry(*telemetry));
 }
