@@ -199,6 +199,10 @@ class BusState {
     // What the last flagged records said (their notes; an exception's code), newest last.
     [[nodiscard]] std::vector<std::string> anomalies() const;
     static constexpr std::size_t kAnomalies = 8;
+    // MQTT messages dropped so far (a full queue while the broker was slow or gone), as
+    // the telemetry sink last read them; nullopt when nothing is published.
+    [[nodiscard]] std::optional<std::uint64_t> messages_dropped() const { return dropped_; }
+    void set_messages_dropped(std::optional<std::uint64_t> n) { dropped_ = n; }
 
   private:
     SlaveState& slave_of(std::uint8_t address, Nanos at, const Profile* profile);
@@ -239,6 +243,7 @@ class BusState {
     // The last kAnomalies of them, each slot's text rewritten in its own room.
     std::array<std::string, kAnomalies> anomalies_;
     std::size_t anomaly_count_ = 0;  // ever noted
+    std::optional<std::uint64_t> dropped_;
     std::string scratch_;     // intern()'s
     std::string value_text_;  // a value without a profile: its word in decimal
     std::string raw_text_;    // and in hex

@@ -109,6 +109,10 @@ std::string bus_line(const BusState& state, const StateView& view) {
         fmt::format_to(std::back_inserter(out), ", last frame {} ago",
                        age_text(now, state.last_time()));
     }
+    if (const auto dropped = state.messages_dropped()) {
+        fmt::format_to(std::back_inserter(out), ", {} MQTT {} dropped", *dropped,
+                       *dropped == 1 ? "message" : "messages");
+    }
     return out;
 }
 

@@ -226,8 +226,14 @@ void MetricsCollector::add_counts(std::vector<MetricFamily>& out, const BusState
         add(utilisation, *busy, {});
     }
 
+    MetricFamily dropped = family("rtuscope_mqtt_dropped_messages_total",
+                                  "MQTT messages dropped (a full queue while the broker was slow "
+                                  "or gone); absent without --mqtt.",
+                                  MetricType::Counter);
+    if (const auto n = state.messages_dropped()) add(dropped, static_cast<double>(*n), {});
+
     for (MetricFamily* f : {&frames, &requests, &answers, &no_answers, &crc_errors, &exceptions,
-                            &bytes, &noise, &utilisation}) {
+                            &bytes, &noise, &utilisation, &dropped}) {
         out.push_back(std::move(*f));
     }
 }

@@ -684,6 +684,9 @@ class MqttExporter final : public Exporter {
     void tick(const BusState& state, Nanos now) override;
     void end(const BusState& state) override;
     [[nodiscard]] std::string summary() const override;
+    [[nodiscard]] std::optional<std::uint64_t> messages_dropped() const override {
+        return connection_->dropped();
+    }
     [[nodiscard]] bool failed() const override {
         return options_.required && connection_->refused();
     }

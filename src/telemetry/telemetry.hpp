@@ -7,6 +7,7 @@
 
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -32,6 +33,10 @@ class Exporter {
     [[nodiscard]] virtual std::string summary() const { return {}; }
     // It could not do its job and was required to (--mqtt-required): the run exits 1.
     [[nodiscard]] virtual bool failed() const { return false; }
+    // Messages it could not deliver so far (MQTT); nullopt for an exporter that drops none.
+    [[nodiscard]] virtual std::optional<std::uint64_t> messages_dropped() const {
+        return std::nullopt;
+    }
 };
 
 // Feeds the records into the shared state and hands each to the exporters. The run's
@@ -51,6 +56,8 @@ class TelemetrySink final : public RecordSink {
     }
 
   private:
+    // The exporters' dropped messages into the state, for watch and the metrics.
+    void count_dropped();
     std::shared_ptr<SharedState> shared_;
     std::vector<std::unique_ptr<Exporter>> exporters_;
 };

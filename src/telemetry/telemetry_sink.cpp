@@ -12,11 +12,21 @@ void TelemetrySink::record(const Record& record) {
     const std::lock_guard lock(shared_->mutex);
     shared_->state.add(record);
     for (auto& e : exporters_) e->record(shared_->state, record);
+    count_dropped();
 }
 
 void TelemetrySink::idle(Nanos now) {
     const std::lock_guard lock(shared_->mutex);
     for (auto& e : exporters_) e->tick(shared_->state, now);
+    count_dropped();
+}
+
+void TelemetrySink::count_dropped() {
+    std::optional<std::uint64_t> dropped;
+    for (const auto& e : exporters_) {
+        if (const auto n = e->messages_dropped()) dropped = dropped.value_or(0) + *n;
+    }
+    shared_->state.set_messages_dropped(dropped);
 }
 
 void TelemetrySink::end(const Totals& /*totals*/, const std::vector<std::string>& /*remarks*/) {
