@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <bit>
 #include <charconv>
+#include <cmath>
 #include <fmt/format.h>
 
 #include "profiles/values.hpp"
@@ -114,6 +115,19 @@ void PerSecond::clear() {
 }
 
 void BusState::begin(const SessionInfo& session) { stats_.begin(session); }
+
+std::optional<BusState::Rates> BusState::recent_rates(Nanos now) const {
+    const Nanos first = stats_.bus().first_start;
+    if (!has_time(now) || !has_time(first)) return std::nullopt;
+    const double seconds = std::clamp(static_cast<double>(now - first) / 1e9, 1.0,
+                                      static_cast<double>(PerSecond::kSeconds));
+    const auto window = static_cast<std::size_t>(std::ceil(seconds));
+    const double bytes = static_cast<double>(bytes_.within(now, window));
+    const double busy =
+        bytes * static_cast<double>(stats_.session().line.char_time()) / 1e9 / seconds;
+    return Rates{static_cast<double>(frames_.within(now, window)) / seconds,
+                 std::min(busy, 1.0)};
+}
 
 FunctionStats BusState::figures(std::uint8_t slave) const {
     FunctionStats sum;

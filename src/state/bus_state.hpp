@@ -194,6 +194,13 @@ class BusState {
     [[nodiscard]] const PerSecond& frames() const { return frames_; }
     [[nodiscard]] const PerSecond& bytes() const { return bytes_; }
     [[nodiscard]] const PerSecond& errors() const { return errors_; }
+    // Frames a second and the line's busy share (0 to 1) over the last minute, or since
+    // the first frame when that is shorter (at least a second); nullopt without timing.
+    struct Rates {
+        double frames_per_second = 0;
+        double utilisation = 0;
+    };
+    [[nodiscard]] std::optional<Rates> recent_rates(Nanos now) const;
     // The latest time any record carried: "now" of a replay.
     [[nodiscard]] Nanos last_time() const { return last_time_; }
     // What the last flagged records said (their notes; an exception's code), newest last.

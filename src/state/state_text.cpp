@@ -91,14 +91,9 @@ std::string bus_line(const BusState& state, const StateView& view) {
     const SessionInfo& session = state.session();
     std::string out = fmt::format("bus: {} {}", session.line.baud, session.line.format());
     const Nanos now = view.now;
-    const double seconds = window_seconds(now, state.stats().bus().first_start);
-    if (seconds > 0) {
-        const auto window = static_cast<std::size_t>(std::ceil(seconds));
-        const double frames = static_cast<double>(state.frames().within(now, window)) / seconds;
-        const double bytes = static_cast<double>(state.bytes().within(now, window));
-        const double busy = bytes * static_cast<double>(session.line.char_time()) / 1e9 / seconds;
-        fmt::format_to(std::back_inserter(out), ", {:.1f} frames/s, utilisation {:.1f} %", frames,
-                       std::min(busy, 1.0) * 100);
+    if (const auto rates = state.recent_rates(now)) {
+        fmt::format_to(std::back_inserter(out), ", {:.1f} frames/s, utilisation {:.1f} %",
+                       rates->frames_per_second, rates->utilisation * 100);
         const std::uint64_t errors = state.errors().within(now, PerSecond::kSeconds);
         fmt::format_to(std::back_inserter(out), ", {} {} in the last minute", errors,
                        errors == 1 ? "error" : "errors");

@@ -69,20 +69,6 @@ std::optional<double> number_of(std::string_view text) {
     return v;
 }
 
-// The dashboard's figure: per cent of the last minute (or of the time since the first
-// frame, when shorter) the line carried a character, as a ratio.
-std::optional<double> recent_utilisation(const BusState& state, Nanos now) {
-    const Nanos first = state.stats().bus().first_start;
-    if (!has_time(now) || !has_time(first)) return std::nullopt;
-    const double seconds = std::clamp(static_cast<double>(now - first) / 1e9, 1.0,
-                                      static_cast<double>(PerSecond::kSeconds));
-    const auto window = static_cast<std::size_t>(std::ceil(seconds));
-    const double bytes = static_cast<double>(state.bytes().within(now, window));
-    const double busy =
-        bytes * static_cast<double>(state.session().line.char_time()) / 1e9 / seconds;
-    return std::min(busy, 1.0);
-}
-
 MetricFamily family(std::string name, std::string help, MetricType type) {
     MetricFamily f;
     f.name = std::move(name);
@@ -222,8 +208,8 @@ void MetricsCollector::add_counts(std::vector<MetricFamily>& out, const BusState
                "Share of the last minute the line carried a character (0 to 1), at the "
                "line's settings; absent without timing.",
                MetricType::Gauge);
-    if (const auto busy = recent_utilisation(state, std::max(now_, state.last_time()))) {
-        add(utilisation, *busy, {});
+    if (const auto rates = state.recent_rates(std::max(now_, state.last_time()))) {
+        add(utilisation, rates->utilisation, {});
     }
 
     MetricFamily dropped = family("rtuscope_mqtt_dropped_messages_total",

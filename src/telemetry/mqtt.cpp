@@ -33,21 +33,6 @@ constexpr std::uint16_t kMqttPort = 1883;
 constexpr std::uint16_t kMqttsPort = 8883;
 constexpr std::string_view kDefaultPrefix = "rtuscope";
 
-bool topic_safe(char c) {
-    return (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') ||
-           c == '_' || c == '-';
-}
-
-// A topic level or an object id: every character outside [A-Za-z0-9_-] replaced by '_'
-// ("ch1.s1" gives "ch1_s1": nothing is taken for a file's extension).
-std::string safe_name(std::string_view text) {
-    std::string out(text);
-    for (char& c : out) {
-        if (!topic_safe(c)) c = '_';
-    }
-    return out;
-}
-
 }  // namespace
 
 Result<MqttUrl> parse_mqtt_url(std::string_view text) {
@@ -913,7 +898,7 @@ void MqttExporter::publish_bus_health(const BusState& state, Nanos now) {
         .number("bytes", stats.bus().bytes)
         .raw("utilisation", utilisation ? fmt::format("{:.2f}", *utilisation) : std::string("null"))
         .number("errors", stats.bus().invalid + stats.bus().noise_runs + answer_errors)
-        .number("errors_last_minute", state.errors().within(now, 60))
+        .number("errors_last_minute", state.errors().within(now, PerSecond::kSeconds))
         .number("slaves", state.slaves().size())
         .number("registers", state.register_count())
         .number("dropped", connection_->dropped());

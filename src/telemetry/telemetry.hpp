@@ -62,8 +62,12 @@ class TelemetrySink final : public RecordSink {
     std::vector<std::unique_ptr<Exporter>> exporters_;
 };
 
-// "ttyUSB0" of "/dev/ttyUSB0", "field_log" of "logs/field log.txt": a name for topics and
-// labels, every character outside [A-Za-z0-9_-] replaced by '_'.
+// A topic level or an object id: every character outside [A-Za-z0-9_-] replaced by '_'
+// ("ch1.s1" gives "ch1_s1": nothing is taken for a file's extension).
+std::string safe_name(std::string_view text);
+
+// "ttyUSB0" of "/dev/ttyUSB0", "field_log" of "logs/field log.txt": an input's base name
+// made safe_name, "bus" when nothing is left.
 std::string topic_name(std::string_view text);
 
 }  // namespace rtuscope

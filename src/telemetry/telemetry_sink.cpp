@@ -43,13 +43,17 @@ std::string topic_name(std::string_view text) {
     if (const auto dot = text.rfind('.'); dot != std::string_view::npos && dot > 0) {
         text = text.substr(0, dot);
     }
+    return text.empty() ? std::string("bus") : safe_name(text);
+}
+
+std::string safe_name(std::string_view text) {
     std::string out(text);
     for (char& c : out) {
         const bool keep = (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') ||
                           (c >= '0' && c <= '9') || c == '_' || c == '-';
         if (!keep) c = '_';
     }
-    return out.empty() ? std::string("bus") : out;
+    return out;
 }
 
 }  // namespace rtuscope
