@@ -57,6 +57,13 @@ test::CollectingSink decode_text(std::string content, const Bus& bus) {
     return out;
 }
 
+// A frame as a capture line's bytes: " 01 03 ...".
+std::string hex(const test::Bytes& bytes) {
+    std::string out;
+    for (const auto b : bytes) out += fmt::format(" {:02X}", b);
+    return out;
+}
+
 MqttOptions options_for(const std::string& url, const std::string& bus) {
     MqttOptions o;
     auto parsed = parse_mqtt_url(url);
@@ -420,6 +427,96 @@ TEST(Mqtt, DiscoveryConfigsNameUnitsClassesDeviceAndAvailability) {
     EXPECT_EQ(configs.count("ha/sensor/rtuscope_zyi-relay_5_relay1/config"), 0U);
 }
 
+// A bit field is one binary sensor per named bit, read from the payload's "bits"; a
+// profile's home_assistant classes win over those its unit implies.
+TEST(Mqtt, BitFieldsAreBinarySensorsPerBitAndTheProfileOverridesClasses) {
+    REQUIRE_MOSQUITTO();
+    Broker broker;
+    ASSERT_TRUE(broker.start());
+    ProfileLoad load = load_profile_text(R"(
+[device]
+name = "heat-pump"
+title = "a heat pump"
+[[register]]
+address = 0
+name = "status"
+type = "bits"
+bits = { "0" = "compressor", "3" = "defrost", "15" = "alarm" }
+[[register]]
+address = 1
+name = "energy_today"
+unit = "kWh"
+home_assistant = { state_class = "total" }
+[[register]]
+address = 2
+name = "flow_temperature"
+unit = "°C"
+home_assistant = { device_class = "", state_class = "" }
+[[register]]
+address = 3
+name = "outdoor_temperature"
+unit = "°C"
+)",
+                                         "heat-pump.toml");
+    ASSERT_TRUE(load.profile) << (load.problems.empty() ? "" : load.problems[0].to_string());
+    Bus bus;
+    bus.add_profile(std::move(*load.profile));
+    ASSERT_TRUE(bus.assign(7, "heat-pump"));
+    // Bits 0 and 15 set (0x8001); 12 kWh, 35 and 5 °C.
+    const std::string capture =
+        "# rtuscope capture v1\n# serial 9600 8N1\n0.000" +
+        hex(test::with_crc({7, 3, 0, 0, 0, 4})) + "\n0.030" +
+        hex(test::with_crc({7, 3, 8, 0x80, 0x01, 0, 12, 0, 35, 0, 5})) + "\n";
+
+    MqttOptions o = options_for(broker.url(), "hp");
+    o.ha_discovery = true;
+    o.ha_prefix = "ha";
+    Exporting e(o);
+    ASSERT_NE(e.exporter, nullptr);
+    e.feed(decode_text(capture, bus));
+    e.end();
+    Subscriber sub(broker.port(), "#");
+    ASSERT_TRUE(sub.ready());
+    const std::string bit_topic = "ha/binary_sensor/rtuscope_hp_7_status_";
+    ASSERT_TRUE(wait_topics(sub, {"rtuscope/hp/7/status", bit_topic + "compressor/config",
+                                  bit_topic + "defrost/config", bit_topic + "alarm/config",
+                                  "ha/sensor/rtuscope_hp_7_status/config",
+                                  "ha/sensor/rtuscope_hp_7_energy_today/config",
+                                  "ha/sensor/rtuscope_hp_7_flow_temperature/config",
+                                  "ha/sensor/rtuscope_hp_7_outdoor_temperature/config"}));
+    const auto last = last_of_each(sub);
+    const auto payload = [&](const std::string& topic) {
+        const auto it = last.find(topic);
+        return it == last.end() ? Json{} : json_of(it->second.payload);
+    };
+
+    // The value: the set bits' names; "bits": each named bit's state.
+    const Json status = payload("rtuscope/hp/7/status");
+    EXPECT_EQ(status["raw"].string(), "0x8001");
+    EXPECT_EQ(status["bits"]["compressor"].number(), 1);
+    EXPECT_EQ(status["bits"]["defrost"].number(), 0);
+    EXPECT_EQ(status["bits"]["alarm"].number(), 1);
+
+    const Json defrost = payload(bit_topic + "defrost/config");
+    EXPECT_EQ(defrost["name"].string(), "status defrost");
+    EXPECT_EQ(defrost["unique_id"].string(), "rtuscope_hp_7_status_defrost");
+    EXPECT_EQ(defrost["state_topic"].string(), "rtuscope/hp/7/status");
+    EXPECT_EQ(defrost["value_template"].string(),
+              "{{ 'ON' if value_json.bits[\"defrost\"] else 'OFF' }}");
+    EXPECT_EQ(defrost["payload_on"].string(), "ON");
+    EXPECT_EQ(defrost["device"]["model"].string(), "heat-pump");
+    EXPECT_EQ(defrost["availability"].array().size(), 2U);
+
+    const auto classes = [&](const std::string& reg) {
+        const Json j = payload("ha/sensor/rtuscope_hp_7_" + reg + "/config");
+        return (j.has("device_class") ? j["device_class"].string() : std::string()) + "/" +
+               (j.has("state_class") ? j["state_class"].string() : std::string());
+    };
+    EXPECT_EQ(classes("energy_today"), "energy/total");  // the class its unit implies, the profile's state class
+    EXPECT_EQ(classes("flow_temperature"), "/");       // none, as the profile says
+    EXPECT_EQ(classes("outdoor_temperature"), "temperature/measurement");
+}
+
 // Writes on the bus are events, not state: not retained, with the write request's number.
 TEST(Mqtt, WritesAreEventsThatAreNotRetained) {
     REQUIRE_MOSQUITTO();
@@ -674,11 +771,6 @@ TEST(Mqtt, ARegisterInAReusedSlotIsPublishedAsANewRegister) {
     ASSERT_TRUE(broker.start());
     Subscriber sub(broker.port(), "rtuscope/evict/#");
     ASSERT_TRUE(sub.ready());
-    const auto hex = [](const test::Bytes& b) {
-        std::string out;
-        for (const auto x : b) out += fmt::format(" {:02X}", x);
-        return out;
-    };
     // Slave 1's 65536 holding registers, all 0, 125 a read; then slave 2's register 0,
     // also 0, which takes the slot of slave 1's register 0.
     std::string capture = "# rtuscope capture v1\n# serial 115200 8N1\n";
@@ -752,11 +844,6 @@ TEST(Mqtt, SlaveIsOfflineAfterThreeMissedPollCyclesAndOnlineAtItsNextAnswer) {
     Subscriber sub(broker.port(), "rtuscope/t/#");
     ASSERT_TRUE(sub.ready());
     std::string capture = "# rtuscope capture v1\n# serial 9600 8N1\n";
-    const auto hex = [](const test::Bytes& b) {
-        std::string s;
-        for (const auto x : b) s += fmt::format(" {:02X}", x);
-        return s;
-    };
     for (int second = 0; second <= 16; ++second) {
         capture += fmt::format("{}.000{}\n", second, hex(test::with_crc({1, 3, 0, 0, 0, 1})));
         const bool answers = second <= 4 || second >= 12;

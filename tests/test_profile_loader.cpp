@@ -278,6 +278,17 @@ INSTANTIATE_TEST_SUITE_P(
                 "test.toml:8:1: unknown key \"units\" in [[register]]\n"
                 "test.toml:10:2: unknown key \"extra\" at the top level (known: device, "
                 "function, register)\n"},
+        BadCase{"home_assistant_classes",
+                std::string(kDevice) +
+                    "[[register]]\naddress = 1\nname = \"a\"\n"
+                    "home_assistant = { device_class = \"Energy\", state_class = \"sum\", x = 1 }\n"
+                    "[[register]]\naddress = 2\nname = \"b\"\nhome_assistant = \"energy\"\n",
+                "test.toml:6:35: device_class \"Energy\" must be lower-case letters and _, as Home "
+                "Assistant names them (\"energy\", \"power\"), or \"\"\n"
+                "test.toml:6:59: state_class \"sum\" must be \"measurement\", \"total\", "
+                "\"total_increasing\" or \"\"\n"
+                "test.toml:6:66: unknown key \"x\" in home_assistant (device_class, state_class)\n"
+                "test.toml:10:18: home_assistant must be a table like { device_class = \"energy\" }\n"},
         BadCase{"several_mistakes_in_one_register",
                 std::string(kDevice) + "[[register]]\naddress = 1\nname = \"a b\"\n"
                                        "access = \"RO\"\nscale = 0.1\ndecimals = 1\n",

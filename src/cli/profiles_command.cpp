@@ -143,6 +143,13 @@ int show_profile(const BusArgs& args, const std::string& name) {
         for (const auto& [raw, meaning] : r.writes) {
             extra += fmt::format("{}write 0x{:04X}: {}", extra.empty() ? "" : "; ", raw, meaning);
         }
+        const auto ha_class = [&](std::string_view key, const std::optional<std::string>& value) {
+            if (!value) return;
+            extra += fmt::format("{}{}={}", extra.empty() ? "" : "; ", key,
+                                 value->empty() ? "none" : *value);
+        };
+        ha_class("home_assistant.device_class", r.ha_device_class);
+        ha_class("home_assistant.state_class", r.ha_state_class);
         fmt::print("{:<9} 0x{:04X}  {:<24} {:<6} {:<12} {:<7} {:<8} {:<6} {:<14} {}\n", r.table,
                    r.address, r.name, type_text(r.type), registers_text(r), scale_text(r), r.unit,
                    access_text(r.access), range_text(r), extra);

@@ -56,6 +56,10 @@ struct Register {
     std::map<std::uint32_t, std::string> labels;  // enum values, or bit number -> bit name
     std::map<std::uint32_t, std::string> writes;  // raw values with a special meaning when
                                                   // written (0xAABB = "clear energy")
+    // Home Assistant's classes for the register's sensor, where the profile overrides the
+    // ones its unit implies: nullopt derives them, "" gives none.
+    std::optional<std::string> ha_device_class;
+    std::optional<std::string> ha_state_class;
     SourcePos pos;
 };
 

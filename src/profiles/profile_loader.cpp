@@ -4,6 +4,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <array>
 #include <cctype>
 #include <charconv>
 #include <cstdint>
@@ -330,6 +331,50 @@ class Loader {
         return labels;
     }
 
+    // `{ device_class = "energy", state_class = "total" }`: Home Assistant's names, lower
+    // case with underscores; "" for none.
+    void read_home_assistant(const toml::node& node, Register& r) {
+        const toml::table* t = node.as_table();
+        if (t == nullptr) {
+            problem(node, "home_assistant must be a table like { device_class = \"energy\" }");
+            return;
+        }
+        for (const auto& [key, value] : *t) {
+            const auto& where = key.source().begin.line != 0 ? key.source() : value.source();
+            if (key.str() != "device_class" && key.str() != "state_class") {
+                problem(where, fmt::format("unknown key \"{}\" in home_assistant (device_class, "
+                                           "state_class)",
+                                           key.str()));
+            }
+        }
+        if (auto device_class = get_string(*t, "device_class")) {
+            const bool good = std::all_of(device_class->begin(), device_class->end(), [](char c) {
+                return (c >= 'a' && c <= 'z') || c == '_';
+            });
+            if (good) {
+                r.ha_device_class = *device_class;
+            } else {
+                problem(*t->get("device_class"),
+                        fmt::format("device_class \"{}\" must be lower-case letters and _, as "
+                                    "Home Assistant names them (\"energy\", \"power\"), or \"\"",
+                                    *device_class));
+            }
+        }
+        if (auto state_class = get_string(*t, "state_class")) {
+            static constexpr std::array<std::string_view, 4> kStateClasses = {
+                "measurement", "total", "total_increasing", ""};
+            if (std::find(kStateClasses.begin(), kStateClasses.end(), *state_class) !=
+                kStateClasses.end()) {
+                r.ha_state_class = *state_class;
+            } else {
+                problem(*t->get("state_class"),
+                        fmt::format("state_class \"{}\" must be \"measurement\", \"total\", "
+                                    "\"total_increasing\" or \"\"",
+                                    *state_class));
+            }
+        }
+    }
+
     static std::optional<std::uint32_t> parse_number(std::string_view text) {
         int base = 10;
         if (text.starts_with("0x") || text.starts_with("0X")) {
@@ -354,7 +399,7 @@ class Loader {
         static const std::vector<std::string_view> kKeys = {
             "table",       "address", "formula",  "name",  "type",   "word_order",
             "length",      "scale",   "decimals", "unit",  "access", "range",
-            "description", "values",  "bits",     "writes"};
+            "description", "values",  "bits",     "writes", "home_assistant"};
         Register r;
         r.pos = pos_of(t.source());
         // A register with a mistake still takes its place in the checks of the whole
@@ -518,6 +563,7 @@ class Loader {
         if (const toml::node* writes = t.get("writes")) {
             r.writes = read_labels(*writes, "writes", 0xFFFF);
         }
+        if (const toml::node* ha = t.get("home_assistant")) read_home_assistant(*ha, r);
 
         const toml::node* address = t.get("address");
         if (address != nullptr && t.get("formula") != nullptr) {

@@ -704,6 +704,8 @@ class MqttExporter final : public Exporter {
     void publish_value(const BusState& state, std::uint32_t slot, bool always);
     void publish_write(const BusState& state, const RegisterState& r, const Record& record);
     void publish_discovery(const BusState& state, const RegisterState& r);
+    void add_discovery_common(JsonObject& json, const BusState& state,
+                              const RegisterState& r) const;
     void publish_bridge_discovery();
     void publish_slave_health(const BusState& state, std::uint8_t address);
     void publish_bus_health(const BusState& state, Nanos now);
@@ -754,6 +756,15 @@ std::string MqttExporter::value_payload(const BusState& state, const RegisterSta
         if (r.raw_words > r.raw.size()) raw += " ...";
     }
     json.string("raw", raw);
+    // A bit field's named bits, each 0 or 1: what its binary sensors read.
+    const Register* reg = profile_register(state, r);
+    if (reg != nullptr && reg->type == ValueType::bits && !reg->labels.empty()) {
+        JsonObject bits;
+        for (const auto& [bit, label] : reg->labels) {
+            bits.number(label, (r.raw[0] >> bit) & 1U);
+        }
+        json.raw("bits", bits.take());
+    }
     json.raw("time", json_time(r.last_update));
     if (request != 0) json.number("request", request);
     return json.take();
@@ -786,25 +797,55 @@ void MqttExporter::publish_write(const BusState& state, const RegisterState& r,
          value_payload(state, r, record.number), false);
 }
 
-void MqttExporter::publish_discovery(const BusState& state, const RegisterState& r) {
+// The parts of a register's discovery config that every entity of it shares: its state
+// topic, availability and device.
+void MqttExporter::add_discovery_common(JsonObject& json, const BusState& state,
+                                        const RegisterState& r) const {
     const SlaveState* slave = state.slave(r.key.slave);
     const Profile* profile = slave != nullptr ? slave->profile : nullptr;
+    json.string("state_topic",
+                fmt::format("{}/{}/{}", base_, r.key.slave, register_topic(state, r)));
+    JsonObject bus_status;
+    bus_status.string("topic", base_ + "/$status");
+    JsonObject slave_status;
+    slave_status.string("topic", fmt::format("{}/{}/$status", base_, r.key.slave));
+    json.raw("availability", "[" + bus_status.take() + "," + slave_status.take() + "]")
+        .string("availability_mode", "all");
+    JsonObject device;
+    std::string ids = "[";
+    append_json_string(ids, fmt::format("rtuscope_{}_{}", bus_, r.key.slave));
+    ids += ']';
+    device.raw("identifiers", ids)
+        .string("name", profile != nullptr
+                            ? fmt::format("slave {} ({})", r.key.slave, profile->name)
+                            : fmt::format("slave {}", r.key.slave));
+    if (profile != nullptr) device.string("model", profile->name);
+    device.string("manufacturer", "rtuscope").string("via_device", "rtuscope_" + bus_);
+    json.raw("device", device.take());
+}
+
+void MqttExporter::publish_discovery(const BusState& state, const RegisterState& r) {
     const Register* reg = profile_register(state, r);
     const std::string topic_level = register_topic(state, r);
     const std::string id = fmt::format("rtuscope_{}_{}_{}", bus_, r.key.slave, topic_level);
-    const std::string slave_id = fmt::format("rtuscope_{}_{}", bus_, r.key.slave);
     const std::optional<Binary> binary = binary_of(r, reg);
+    // A class the profile gives ("" for none) wins over the one the unit implies.
+    const auto put_class = [&](JsonObject& json, std::string_view key,
+                               const std::optional<std::string>& given, std::string_view derived) {
+        const std::string_view value = given ? std::string_view(*given) : derived;
+        if (!value.empty()) json.string(key, value);
+    };
 
     JsonObject json;
     json.string("name", topic_level)
         .string("unique_id", id)
         .string("object_id", id)
-        .string("state_topic", fmt::format("{}/{}/{}", base_, r.key.slave, topic_level))
         .string("value_template", "{{ value_json.value }}");
     // The profile's unit: a command written has none.
     const std::string_view unit = reg != nullptr ? std::string_view(reg->unit) : state.text(r.unit);
     if (binary) {
         json.string("payload_on", binary->on).string("payload_off", binary->off);
+        if (reg != nullptr) put_class(json, "device_class", reg->ha_device_class, {});
     } else {
         if (!unit.empty()) json.string("unit_of_measurement", unit);
         const auto* cls = std::find_if(kUnitClasses.begin(), kUnitClasses.end(),
@@ -815,30 +856,34 @@ void MqttExporter::publish_discovery(const BusState& state, const RegisterState&
         // By the profile's type where there is one: a write's command word ("clear the
         // energy counter") leaves a number register a number register.
         const bool numeric = reg != nullptr ? is_number_type(reg->type) : r.numeric;
-        if (numeric) {
-            if (applies) json.string("device_class", cls->device_class);
-            json.string("state_class", applies ? cls->state_class : std::string_view("measurement"));
-        }
+        const std::optional<std::string> no_override;
+        put_class(json, "device_class", reg != nullptr ? reg->ha_device_class : no_override,
+                  numeric && applies ? cls->device_class : std::string_view());
+        put_class(json, "state_class", reg != nullptr ? reg->ha_state_class : no_override,
+                  !numeric ? std::string_view() : applies ? cls->state_class : "measurement");
     }
-    JsonObject bus_status;
-    bus_status.string("topic", base_ + "/$status");
-    JsonObject slave_status;
-    slave_status.string("topic", fmt::format("{}/{}/$status", base_, r.key.slave));
-    json.raw("availability", "[" + bus_status.take() + "," + slave_status.take() + "]")
-        .string("availability_mode", "all");
-    JsonObject device;
-    std::string ids = "[";
-    append_json_string(ids, slave_id);
-    ids += ']';
-    device.raw("identifiers", ids)
-        .string("name", profile != nullptr
-                            ? fmt::format("slave {} ({})", r.key.slave, profile->name)
-                            : fmt::format("slave {}", r.key.slave));
-    if (profile != nullptr) device.string("model", profile->name);
-    device.string("manufacturer", "rtuscope").string("via_device", "rtuscope_" + bus_);
-    json.raw("device", device.take());
+    add_discovery_common(json, state, r);
     push(fmt::format("{}/{}/{}/config", options_.ha_prefix, binary ? "binary_sensor" : "sensor", id),
          json.take());
+
+    // A bit field: besides the text of its set bits, one binary sensor per named bit, read
+    // from the payload's "bits".
+    if (reg == nullptr || reg->type != ValueType::bits) return;
+    for (const auto& [bit, label] : reg->labels) {
+        const std::string bit_id = fmt::format("{}_{}", id, safe_name(label));
+        std::string key;
+        append_json_string(key, label);
+        JsonObject bit_json;
+        bit_json.string("name", fmt::format("{} {}", topic_level, label))
+            .string("unique_id", bit_id)
+            .string("object_id", bit_id)
+            .string("value_template",
+                    fmt::format("{{{{ 'ON' if value_json.bits[{}] else 'OFF' }}}}", key))
+            .string("payload_on", "ON")
+            .string("payload_off", "OFF");
+        add_discovery_common(bit_json, state, r);
+        push(fmt::format("{}/binary_sensor/{}/config", options_.ha_prefix, bit_id), bit_json.take());
+    }
 }
 
 // The sniffer itself, which every slave's device is reached through: its bus's
