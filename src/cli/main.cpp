@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "decode_command.hpp"
+#include "detect_command.hpp"
 #include "output/block_output.hpp"
 #include "profiles_command.hpp"
 #include "sniff_command.hpp"
@@ -106,6 +107,7 @@ int run(int argc, char** argv) {
     rtuscope::cli::add_sniff_command(app, exit_code);
     rtuscope::cli::add_demo_command(app, exit_code);
     rtuscope::cli::add_watch_command(app, exit_code);
+    rtuscope::cli::add_detect_command(app, exit_code);
     rtuscope::cli::add_profiles_command(app, exit_code);
     try {
         app.parse(argc, argv);

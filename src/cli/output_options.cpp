@@ -48,7 +48,9 @@ void add_filter_options(CLI::App& cmd, OutputArgs& args) {
 }
 
 void add_line_options(CLI::App& cmd, OutputArgs& args) {
-    cmd.add_option("--baud", args.baud, "Line speed; overrides the capture header (default 9600)");
+    cmd.add_option("--baud", args.baud,
+                   "Line speed; overrides the capture header (default 9600). sniff and watch: "
+                   "'auto' finds the speed and format by listening first");
     cmd.add_option("--format", args.format,
                    "Data bits, parity, stop bits: 8N1, 8E1, 8O1, 8N2, 7E1...; overrides the "
                    "capture header (default 8N1)");
@@ -213,6 +215,11 @@ std::optional<Decoding> prepare_decoding(const OutputArgs& args, int& exit_code,
         exit_code = code;
         return std::nullopt;
     };
+    if (args.baud == "auto") {
+        return fail(Error{"--baud auto listens to a live port (sniff, watch); to read a "
+                          "capture's rate from its timing: rtuscope detect FILE"},
+                    2);
+    }
     if (!args.baud.empty()) {
         auto baud = parse_baud(args.baud);
         if (!baud) return fail(baud.error(), 2);

@@ -11,6 +11,7 @@
 #include <thread>
 #include <vector>
 
+#include "detect_command.hpp"
 #include "errors.hpp"
 #include "input/capture_writer.hpp"
 #include "input/tty.hpp"
@@ -38,7 +39,20 @@ void add_recording_options(CLI::App& cmd, LiveArgs& args) {
         ->check(CLI::PositiveNumber);
 }
 
+void take_baud_auto(LiveArgs& args) {
+    if (args.output.baud != "auto") return;
+    args.output.baud.clear();
+    args.detect_line = true;
+}
+
 int run_live(const LiveArgs& args, Decoding& decoding, TtyOptions tty) {
+    if (args.detect_line) {
+        int code = 0;
+        const auto found = detect_for_sniffing(tty.ports, decoding.options.format, code);
+        if (!found || g_stop.load()) return found ? 128 + stop_signal() : code;
+        decoding.options.baud = found->baud;
+        decoding.options.format = *found;
+    }
     tty.line = live_line(decoding);
     tty.stop = &g_stop;
     if (args.seconds > 0) tty.duration = static_cast<Nanos>(std::llround(args.seconds * 1e9));
@@ -114,6 +128,7 @@ struct SniffArgs {
 
 int run_sniff(SniffArgs args) {
     args.live.output.closing_stats = true;
+    take_baud_auto(args.live);
     int exit_code = 0;
     auto decoding = prepare_decoding(args.live.output, exit_code);
     if (!decoding) return exit_code;

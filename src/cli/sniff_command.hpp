@@ -20,11 +20,16 @@ struct LiveArgs {
     TelemetryArgs telemetry;
     std::string write_file;
     double seconds = 0;  // 0: until stopped
+    bool detect_line = false;  // --baud auto: find the settings before sniffing
 };
+// Takes `--baud auto` out of the output options (which parse a number) into
+// `detect_line`.
+void take_baud_auto(LiveArgs& args);
 // -w and --seconds.
 void add_recording_options(CLI::App& cmd, LiveArgs& args);
 
-// Runs the pipeline on open ports until they go away, --seconds pass or a signal comes;
+// With detect_line, first finds the line's settings by listening (the format only when
+// --format does not give it). Runs the pipeline on open ports until they go away, --seconds pass or a signal comes;
 // a short summary goes to stderr.
 int run_live(const LiveArgs& args, Decoding& decoding, TtyOptions tty);
 

@@ -2,8 +2,8 @@
 
 #include <fmt/format.h>
 
-#include <array>
-#include <cmath>
+#include <algorithm>
+#include <optional>
 
 namespace rtuscope {
 namespace {
@@ -12,13 +12,12 @@ namespace {
 constexpr std::uint64_t kMinBytes = 64;
 // Less than this share of the bytes in valid frames: not Modbus RTU at these settings.
 constexpr double kMinValidShare = 0.05;
-// Intervals kept for the rate estimate: up to 10 ms, in microseconds.
-constexpr std::size_t kMaxIntervalMicros = 10'000;
 
 }  // namespace
 
 void LineCheck::chunk(const Chunk& chunk) {
     bytes_ += chunk.bytes.size();
+    char_time_.chunk(chunk);
     if (chunk.bytes.size() != 1 || !has_time(chunk.time)) {
         last_single_ = kNoTime;
         return;
@@ -28,11 +27,6 @@ void LineCheck::chunk(const Chunk& chunk) {
         ++single_pairs_;
         // A little slack for the clock's resolution.
         if (interval < line_.char_time() * 9 / 10) ++too_soon_;
-        const auto micros = static_cast<std::size_t>(interval / 1000);
-        if (micros < kMaxIntervalMicros) {
-            if (interval_counts_.empty()) interval_counts_.resize(kMaxIntervalMicros);
-            ++interval_counts_[micros];
-        }
     }
     last_single_ = chunk.time;
 }
@@ -53,28 +47,33 @@ std::vector<std::string> LineCheck::remarks() const {
             line_.baud, line_.format(),
             100.0 * static_cast<double>(valid_bytes_) / static_cast<double>(bytes_), bytes_));
     }
-    // Back-to-back bytes are a character apart: when most come sooner, the line is faster.
+    // Back-to-back bytes are a character apart: the rate and character length their
+    // spacing fits, when the header's rate fits none.
+    const std::optional<CharTimeEstimate> estimate = char_time_.estimate();
+    const std::vector<CharTimeFit> fits =
+        estimate ? fit_char_time(estimate->char_time) : std::vector<CharTimeFit>{};
+    const bool header_fits = std::any_of(fits.begin(), fits.end(), [&](const CharTimeFit& f) {
+        return f.baud == line_.baud;
+    });
+    std::string suggestion;
+    if (!fits.empty() && !header_fits) {
+        suggestion = fmt::format("their spacing ({} µs) suggests {} baud with {}",
+                                 estimate->char_time / 1000, fits.front().baud,
+                                 describe_char_bits(fits.front().bits_per_char));
+    }
     if (single_pairs_ >= 16 && too_soon_ * 2 >= single_pairs_) {
-        // The interval most bytes keep: the tenth percentile of those seen.
-        std::uint64_t seen = 0;
-        for (const std::uint32_t n : interval_counts_) seen += n;
-        std::uint64_t counted = 0;
-        std::size_t micros = 0;
-        for (; micros < interval_counts_.size(); ++micros) {
-            counted += interval_counts_[micros];
-            if (counted * 10 >= seen) break;
-        }
-        std::string suggestion;
-        if (seen != 0) {
-            const double baud = line_.bits_per_char() * 1e6 / (static_cast<double>(micros) + 0.5);
-            const std::uint32_t nearest = nearest_standard_baud(baud);
-            suggestion = fmt::format("; their spacing ({} µs) suggests {} baud", micros, nearest);
-        }
         out.push_back(
             fmt::format("bytes come sooner than a character takes at {} baud ({:.3f} ms): {} of {} "
-                        "intervals between bytes timed one by one{}",
+                        "intervals between bytes timed one by one{}{}",
                         line_.baud, static_cast<double>(line_.char_time()) / 1e6, too_soon_,
-                        single_pairs_, suggestion));
+                        single_pairs_, suggestion.empty() ? "" : "; ", suggestion));
+    } else if (!suggestion.empty()) {
+        // Slower than the header's rate: a sender pausing between characters would not
+        // keep one spacing that fits another standard rate.
+        out.push_back(fmt::format("bytes timed one by one are further apart than a character "
+                                  "at {} baud ({:.3f} ms): {}",
+                                  line_.baud, static_cast<double>(line_.char_time()) / 1e6,
+                                  suggestion));
     }
     return out;
 }

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "framing/char_time.hpp"
 #include "framing/frame.hpp"
 #include "framing/line_settings.hpp"
 #include "input/chunk.hpp"
@@ -32,8 +33,8 @@ class LineCheck {
     Nanos last_single_ = kNoTime;
     std::uint64_t single_pairs_ = 0;
     std::uint64_t too_soon_ = 0;
-    // The shortest intervals seen, as a histogram of microseconds, for the rate to suggest.
-    std::vector<std::uint32_t> interval_counts_;
+    // The rate to suggest.
+    CharTimeEstimator char_time_;
 };
 
 }  // namespace rtuscope

@@ -16,6 +16,7 @@
 
 #include "input/tty.hpp"
 #include "input/tty_baud.hpp"
+#include "input/tty_port.hpp"
 #include "input/tty_speed.hpp"
 
 namespace rtuscope {
@@ -70,8 +71,6 @@ Nanos ReadBatcher::stamp(Nanos now, std::size_t count) {
     return end;
 }
 
-namespace {
-
 Error open_error(const std::string& path, int err) {
     std::string message = fmt::format("cannot open: {}", std::strerror(err));
     if (err == EACCES || err == EPERM) {
@@ -85,6 +84,8 @@ Error open_error(const std::string& path, int err) {
     }
     return Error{message, path};
 }
+
+namespace {
 
 struct Port {
     std::string path;
@@ -228,13 +229,16 @@ class TtySource final : public ChunkSource {
     bool second_ready_ = false;  // both ports had bytes: reads_[1] is handed over next
 };
 
-Status configure(Port& port, const LineSettings& line, std::vector<std::string>& notices) {
-    if (!isatty(port.fd)) {
-        return Error{"not a serial port (to decode a file, use rtuscope decode)", port.path};
+}  // namespace
+
+Status configure_port(int fd, const std::string& path, const LineSettings& line,
+                      ErrorMarks marks, std::vector<std::string>& notices) {
+    if (!isatty(fd)) {
+        return Error{"not a serial port (to decode a file, use rtuscope decode)", path};
     }
     termios tio{};
-    if (tcgetattr(port.fd, &tio) != 0) {
-        return Error{fmt::format("cannot read its settings: {}", std::strerror(errno)), port.path};
+    if (tcgetattr(fd, &tio) != 0) {
+        return Error{fmt::format("cannot read its settings: {}", std::strerror(errno)), path};
     }
     cfmakeraw(&tio);
     tio.c_cflag |= CLOCAL | CREAD;
@@ -248,7 +252,7 @@ Status configure(Port& port, const LineSettings& line, std::vector<std::string>&
     // the byte or turning it into 0: a sniffer must show what was wrong and where.
     tio.c_iflag &= ~static_cast<tcflag_t>(IGNPAR | IGNBRK | BRKINT | ISTRIP | IXON | IXOFF);
     tio.c_iflag |= PARMRK;
-    if (line.parity != 'N') tio.c_iflag |= INPCK;
+    if (line.parity != 'N' || marks == ErrorMarks::parity_and_framing) tio.c_iflag |= INPCK;
     tio.c_cc[VMIN] = 0;
     tio.c_cc[VTIME] = 0;
     const auto speed = standard_speed(line.baud);
@@ -256,34 +260,32 @@ Status configure(Port& port, const LineSettings& line, std::vector<std::string>&
         cfsetispeed(&tio, *speed);
         cfsetospeed(&tio, *speed);
     }
-    if (tcsetattr(port.fd, TCSANOW, &tio) != 0) {
+    if (tcsetattr(fd, TCSANOW, &tio) != 0) {
         return Error{fmt::format("cannot set the line settings: {}", std::strerror(errno)),
-                     port.path};
+                     path};
     }
-    if (!speed && !set_custom_baud(port.fd, line.baud)) {
-        return Error{fmt::format("the driver does not support {} baud", line.baud), port.path};
+    if (!speed && !set_custom_baud(fd, line.baud)) {
+        return Error{fmt::format("the driver does not support {} baud", line.baud), path};
     }
     // Low latency makes USB adapters hand bytes over at once rather than every 16 ms.
     serial_struct serial{};
-    if (ioctl(port.fd, TIOCGSERIAL, &serial) == 0) {
+    if (ioctl(fd, TIOCGSERIAL, &serial) == 0) {
         serial.flags |= ASYNC_LOW_LATENCY;
-        if (ioctl(port.fd, TIOCSSERIAL, &serial) != 0) {
+        if (ioctl(fd, TIOCSSERIAL, &serial) != 0) {
             notices.push_back(
                 fmt::format("{}: the driver refuses low-latency mode ({}); timing "
                             "is as coarse as it delivers bytes",
-                            port.path, std::strerror(errno)));
+                            path, std::strerror(errno)));
         }
-    } else if (port.path.rfind("/dev/pts/", 0) != 0) {  // a pseudo-terminal has no UART
+    } else if (path.rfind("/dev/pts/", 0) != 0) {  // a pseudo-terminal has no UART
         notices.push_back(
             fmt::format("{}: no low-latency mode ({}); timing is as coarse as "
                         "the driver delivers bytes",
-                        port.path, std::strerror(errno)));
+                        path, std::strerror(errno)));
     }
-    tcflush(port.fd, TCIFLUSH);  // what was buffered before we listened has no time
+    tcflush(fd, TCIFLUSH);  // what was buffered before we listened has no time
     return ok_status();
 }
-
-}  // namespace
 
 Result<std::unique_ptr<ChunkSource>> open_tty_source(const TtyOptions& options,
                                                      std::vector<std::string>* notices) {
@@ -310,7 +312,9 @@ Result<std::unique_ptr<ChunkSource>> open_tty_source(const TtyOptions& options,
             return open_error(port.path, err);
         }
         ports.push_back(std::move(port));
-        if (Status s = configure(ports.back(), options.line, said); !s) {
+        if (Status s = configure_port(ports.back().fd, ports.back().path, options.line,
+                                      ErrorMarks::as_the_format_checks, said);
+            !s) {
             for (Port& p : ports) close(p.fd);
             return s.error();
         }

@@ -1,0 +1,109 @@
+// One setting's evidence: what `decode` makes of the bytes heard at it.
+#include <algorithm>
+#include <cmath>
+
+#include "detect/detect.hpp"
+#include "pipeline.hpp"
+
+namespace rtuscope {
+namespace {
+
+// The chunks heard at one setting, as a source for the pipeline.
+class HeardSource final : public ChunkSource {
+  public:
+    HeardSource(std::span<const Chunk> chunks, const LineSettings& line) : chunks_(chunks) {
+        info_.name = "heard";
+        info_.format = "live";
+        info_.line = line;
+        info_.timed = true;
+    }
+    [[nodiscard]] const SourceInfo& info() const override { return info_; }
+    Result<bool> next(Chunk& out) override {
+        if (next_ == chunks_.size()) return false;
+        out = chunks_[next_++];
+        return true;
+    }
+
+  private:
+    std::span<const Chunk> chunks_;
+    std::size_t next_ = 0;
+    SourceInfo info_;
+};
+
+class Counting final : public RecordSink {
+  public:
+    explicit Counting(SettingScore& score) : score_(score) {}
+    void begin(const SessionInfo& /*session*/) override {}
+    void record(const Record& r) override {
+        if (r.kind == Kind::noise) return;
+        const CrcStatus crc = r.frame.crc.status;
+        if (r.kind == Kind::invalid || crc == CrcStatus::bad || crc == CrcStatus::none) {
+            ++score_.bad_frames;
+            return;
+        }
+        ++score_.frames;
+        score_.frame_bytes += r.frame.bytes.size();
+        if ((r.kind == Kind::response || r.kind == Kind::exception) && r.request_number != 0) {
+            ++score_.paired;
+        }
+    }
+    void end(const Totals& /*totals*/, const std::vector<std::string>& /*remarks*/) override {}
+
+  private:
+    SettingScore& score_;
+};
+
+TimingFit timing_fit(const LineSettings& line, const std::optional<CharTimeEstimate>& timing) {
+    if (!timing) return TimingFit::unknown;
+    const double bits = static_cast<double>(timing->char_time) * line.baud / kNanosPerSecond;
+    const double ratio = bits / line.bits_per_char();
+    if (std::abs(std::log(ratio)) <= 0.04) return TimingFit::exact;
+    return ratio > 1 ? TimingFit::slower : TimingFit::faster;
+}
+
+}  // namespace
+
+double SettingScore::coverage() const {
+    return bytes == 0 ? 0.0 : static_cast<double>(frame_bytes) / static_cast<double>(bytes);
+}
+
+SettingScore score_setting(const LineSettings& line, std::span<const Chunk> chunks,
+                           Nanos listened) {
+    SettingScore s;
+    s.line = line;
+    s.listened = listened;
+    CharTimeEstimator estimator;
+    for (const Chunk& c : chunks) {
+        s.bytes += c.bytes.size();
+        s.char_errors += c.char_errors.size();
+        estimator.chunk(c);
+    }
+    s.timing = estimator.estimate();
+    s.timing_fit = timing_fit(line, s.timing);
+    if (s.bytes == 0) return s;
+
+    HeardSource source(chunks, line);
+    PipelineOptions options;
+    options.baud = line.baud;
+    options.format = line;
+    Counting counting(s);
+    // Heard bytes always make records: a source in memory has no read error to give.
+    (void)run_pipeline(source, options, counting);
+
+    // A right setting puts the bytes in frames with a valid CRC, without errors, and its
+    // answers follow requests; a wrong one gives noise, errors and no pairs. A few frames
+    // are needed before any of it counts: a CRC matches by chance once in 65536 tries.
+    const double coverage = std::min(1.0, s.coverage());
+    const double clean =
+        1.0 - std::min(1.0, static_cast<double>(s.char_errors) / static_cast<double>(s.bytes));
+    const double paired_share =
+        s.frames == 0 ? 0.0 : std::min(1.0, 2.0 * static_cast<double>(s.paired) / static_cast<double>(s.frames));
+    const double evidence = std::min(1.0, static_cast<double>(s.frames) / 3.0);
+    double timing = 1.0;
+    if (s.timing_fit == TimingFit::slower) timing = 0.9;
+    if (s.timing_fit == TimingFit::faster) timing = 0.3;
+    s.score = 100.0 * coverage * clean * (0.8 + 0.2 * paired_share) * evidence * timing;
+    return s;
+}
+
+}  // namespace rtuscope
