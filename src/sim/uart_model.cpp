@@ -28,8 +28,7 @@ UartResampler::UartResampler(LineSettings wire, LineSettings receiver, Nanos lis
       den_(2 * static_cast<std::int64_t>(wire.baud) * receiver.baud),
       wire_bit_(2 * kNanosPerSecond * receiver.baud),
       half_bit_(kNanosPerSecond * wire.baud),
-      wire_char_ns_((static_cast<Nanos>(wire_bits_) * kNanosPerSecond + wire.baud - 1) /
-                    wire.baud),
+      wire_char_ns_((static_cast<Nanos>(wire_bits_) * kNanosPerSecond + wire.baud - 1) / wire.baud),
       // Just before `listen_from`, so that an edge exactly at it counts.
       last_(listen_from == kNoTime ? Instant{kNoTime, 0} : Instant{listen_from - 1, den_ - 1}) {}
 

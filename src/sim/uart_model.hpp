@@ -27,7 +27,7 @@ namespace rtuscope::sim {
 
 // A character as the receiving UART reports it.
 struct Received {
-    Nanos time = 0;  // the receiver's first stop-bit sample, rounded up to the nanosecond
+    Nanos time = 0;         // the receiver's first stop-bit sample, rounded up to the nanosecond
     std::uint8_t byte = 0;  // a 7-bit receiver's has the top bit 0
     bool parity_error = false;
     bool framing_error = false;  // the first stop bit sampled 0
