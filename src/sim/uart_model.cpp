@@ -56,7 +56,8 @@ UartResampler::Instant UartResampler::sample_time(const Edge& edge, unsigned bit
 }
 
 bool UartResampler::ended_by(const WireChar& c, Instant t) const {
-    return plus({c.start, 0}, static_cast<std::int64_t>(wire_bits_) * wire_bit_) <= t;
+    const Instant end = plus({c.start, 0}, static_cast<std::int64_t>(wire_bits_) * wire_bit_);
+    return !(t < end);
 }
 
 std::optional<UartResampler::Edge> UartResampler::next_edge(Instant after) const {
@@ -70,7 +71,7 @@ std::optional<UartResampler::Edge> UartResampler::next_edge(Instant after) const
             const bool level = ((c.levels >> b) & 1U) != 0;
             if (before && !level) {
                 const Instant at = plus({c.start, 0}, static_cast<std::int64_t>(b) * wire_bit_);
-                if (at > after) return Edge{at, i};
+                if (after < at) return Edge{at, i};
             }
             before = level;
         }
@@ -122,13 +123,13 @@ void UartResampler::take_until(Nanos now, std::vector<Received>& out) {
         const auto edge = next_edge(last_);
         if (!edge) break;
         const Instant start_sample = sample_time(*edge, 0);
-        if (start_sample > limit) break;
+        if (limit < start_sample) break;
         std::size_t index = edge->index;
         if (level_at(start_sample, index)) {
             last_ = start_sample;  // a glitch, not a start bit
         } else {
             const Instant stop = sample_time(*edge, stop_sample_);
-            if (stop > limit) break;
+            if (limit < stop) break;
             out.push_back(read_char(*edge));
             last_ = stop;
         }

@@ -63,7 +63,9 @@ class UartResampler {
     struct Instant {
         Nanos ns = 0;
         std::int64_t frac = 0;
-        friend auto operator<=>(const Instant&, const Instant&) = default;
+        friend bool operator<(const Instant& a, const Instant& b) {
+            return a.ns != b.ns ? a.ns < b.ns : a.frac < b.frac;
+        }
     };
     struct WireChar {
         Nanos start = 0;
