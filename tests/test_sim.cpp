@@ -441,7 +441,8 @@ TEST(SimMaster, PollsAtABaudRateWithoutATermiosConstant) {
         std::this_thread::sleep_for(std::chrono::milliseconds(10));
     }
     ASSERT_EQ((*master)->cycles(), 1U);
-    const MasterEntry* read = find_entry((*master)->log(), 3, 0x03, 0x0000);
+    const std::vector<MasterEntry> log = (*master)->log();
+    const MasterEntry* read = find_entry(log, 3, 0x03, 0x0000);
     ASSERT_NE(read, nullptr);
     EXPECT_TRUE(read->answered);
     EXPECT_EQ((*bus)->receiver_errors(0), 0u);
