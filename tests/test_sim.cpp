@@ -13,7 +13,9 @@
 #include <vector>
 
 #include "framing/crc.hpp"
+#include "input/tty_baud.hpp"
 #include "sim/sim.hpp"
+#include "sim/uart_model.hpp"
 
 // The devices' frame splitter is private to the simulator.
 #include "sim/sim_util.hpp"
@@ -147,6 +149,118 @@ TEST(SimVirtualBus, PacedDeliveryTakesTheCharacterTimes) {
     // Only a lower bound: a slow machine makes delivery later, never earlier.
     const auto expected = std::chrono::nanoseconds(line.char_time() * 96);  // 100 ms
     EXPECT_GE(took, expected * 8 / 10);
+}
+
+// What a UART at `receiver` makes of `bytes` sent back to back on `line`, as the hub sends
+// one write; `errors` counts those received with an error.
+Bytes uart_receives(const LineSettings& line, const LineSettings& receiver, const Bytes& bytes,
+                    std::uint64_t& errors) {
+    UartResampler uart(line, receiver);
+    Nanos t = 0;
+    for (const std::uint8_t b : bytes) {
+        uart.send(t, b);
+        t += line.char_time();
+    }
+    std::vector<Received> got;
+    uart.take_until(t + kNanosPerSecond, got);
+    Bytes out;
+    errors = 0;
+    for (const Received& r : got) {
+        out.push_back(r.byte);
+        if (r.parity_error || r.framing_error) ++errors;
+    }
+    return out;
+}
+
+// Sets a port's speed as a sniffer or a device does, on the slave it opened.
+void set_speed(int fd, speed_t speed) {
+    termios tio{};
+    ASSERT_EQ(::tcgetattr(fd, &tio), 0);
+    ::cfsetispeed(&tio, speed);
+    ::cfsetospeed(&tio, speed);
+    ASSERT_EQ(::tcsetattr(fd, TCSANOW, &tio), 0);
+}
+
+TEST(SimVirtualBus, PortAtAnotherBaudRateGetsWhatItsUartReceives) {
+    const LineSettings line = line_9600_8n1();
+    auto bus = VirtualBus::create(3, {line, true});
+    ASSERT_TRUE(bus.ok()) << bus.error().message;
+    PortFd p0((*bus)->port_path(0));
+    PortFd p1((*bus)->port_path(1));
+    PortFd p2((*bus)->port_path(2));
+    set_speed(p1.fd(), B19200);
+
+    const Bytes frame = with_crc({0x01, 0x03, 0x00, 0x00, 0x00, 0x02});
+    std::uint64_t errors = 0;
+    const Bytes garbage = uart_receives(line, {19200, 8, 'N', 1}, frame, errors);
+    ASSERT_NE(garbage, frame);
+    p0.write(frame);
+    EXPECT_EQ(p1.read(garbage.size(), std::chrono::milliseconds(2000)), garbage);
+    EXPECT_EQ(p2.read(frame.size(), std::chrono::milliseconds(2000)), frame);
+    EXPECT_EQ((*bus)->receiver_errors(1), errors);
+    EXPECT_EQ((*bus)->receiver_errors(2), 0u);
+
+    // Back at the line's rate, the port gets the bytes as sent.
+    set_speed(p1.fd(), B9600);
+    p0.write(frame);
+    EXPECT_EQ(p1.read(frame.size(), std::chrono::milliseconds(2000)), frame);
+    EXPECT_EQ(p2.read(frame.size(), std::chrono::milliseconds(2000)), frame);
+}
+
+TEST(SimVirtualBus, PortAtACustomBaudRateGetsWhatItsUartReceives) {
+    // A rate without a B* constant (BOTHER), as the sniffer sets one.
+    const LineSettings line = line_9600_8n1();
+    auto bus = VirtualBus::create(2, {line, true});
+    ASSERT_TRUE(bus.ok()) << bus.error().message;
+    PortFd p0((*bus)->port_path(0));
+    PortFd p1((*bus)->port_path(1));
+    ASSERT_TRUE(set_custom_baud(p1.fd(), 14400));
+
+    const Bytes frame = with_crc({0x02, 0x04, 0x00, 0x10, 0x00, 0x01});
+    std::uint64_t errors = 0;
+    const Bytes garbage = uart_receives(line, {14400, 8, 'N', 1}, frame, errors);
+    ASSERT_NE(garbage, frame);
+    p0.write(frame);
+    EXPECT_EQ(p1.read(garbage.size(), std::chrono::milliseconds(2000)), garbage);
+}
+
+TEST(SimVirtualBus, ReceiverWithParityOnANoParityLineGetsGarbage) {
+    const LineSettings line = line_9600_8n1();
+    auto bus = VirtualBus::create(3, {line, true});
+    ASSERT_TRUE(bus.ok()) << bus.error().message;
+    ASSERT_TRUE((*bus)->set_receiver_format(1, 8, 'E'));
+    EXPECT_FALSE((*bus)->set_receiver_format(1, 9, 'E'));
+    EXPECT_FALSE((*bus)->set_receiver_format(1, 8, 'X'));
+    EXPECT_FALSE((*bus)->set_receiver_format(3, 8, 'E'));
+    PortFd p0((*bus)->port_path(0));
+    PortFd p1((*bus)->port_path(1));
+    PortFd p2((*bus)->port_path(2));
+
+    // Back to back, each character's parity sample is the stop bit and its stop sample the
+    // next start bit: framing errors, then a receiver out of step.
+    const Bytes frame = with_crc({0x01, 0x03, 0x00, 0x00, 0x00, 0x02});
+    std::uint64_t errors = 0;
+    const Bytes garbage = uart_receives(line, {9600, 8, 'E', 1}, frame, errors);
+    ASSERT_NE(garbage, frame);
+    ASSERT_GT(errors, 0u);
+    p0.write(frame);
+    EXPECT_EQ(p1.read(garbage.size(), std::chrono::milliseconds(2000)), garbage);
+    EXPECT_EQ(p2.read(frame.size(), std::chrono::milliseconds(2000)), frame);
+    EXPECT_EQ((*bus)->receiver_errors(1), errors);
+}
+
+TEST(SimVirtualBus, UnpacedBusGivesEveryPortTheBytesAsSent) {
+    // Without times there is no waveform to sample.
+    auto bus = VirtualBus::create(2, {line_9600_8n1(), false});
+    ASSERT_TRUE(bus.ok()) << bus.error().message;
+    ASSERT_TRUE((*bus)->set_receiver_format(1, 8, 'E'));
+    PortFd p0((*bus)->port_path(0));
+    PortFd p1((*bus)->port_path(1));
+    set_speed(p1.fd(), B19200);
+    const Bytes frame = with_crc({0x01, 0x03, 0x00, 0x00, 0x00, 0x02});
+    p0.write(frame);
+    EXPECT_EQ(p1.read(frame.size(), std::chrono::milliseconds(1000)), frame);
+    EXPECT_EQ((*bus)->receiver_errors(1), 0u);
 }
 
 TEST(SimVirtualBus, UnplugHangsUpTheReader) {
@@ -308,6 +422,31 @@ TEST(SimMaster, RunUntilStoppedKeepsNoLog) {
     (*master)->stop();
     ASSERT_GE((*master)->cycles(), 1U);
     EXPECT_TRUE((*master)->log().empty());
+}
+
+// libmodbus sets B9600 for a rate without a B* constant; the simulated devices and master
+// set such a rate themselves, or each port's receiver would take the line at 9600.
+TEST(SimMaster, PollsAtABaudRateWithoutATermiosConstant) {
+    const LineSettings line{14400, 8, 'N', 1};
+    auto bus = VirtualBus::create(2, {line, true});
+    ASSERT_TRUE(bus.ok()) << bus.error().message;
+    auto pdu = start_device("pdu485", 3, (*bus)->port_path(1), line);
+    ASSERT_TRUE(pdu.ok()) << pdu.error().message;
+    Master::Devices devices;
+    devices.zb_uvi485 = devices.sensor_analyser = devices.zyi_relay = devices.pdu485 = 3;
+    auto master = start_master((*bus)->port_path(0), line, devices, 1, 0);
+    ASSERT_TRUE(master.ok()) << master.error().message;
+    const auto deadline = Clock::now() + std::chrono::seconds(10);
+    while ((*master)->cycles() < 1 && Clock::now() < deadline) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    ASSERT_EQ((*master)->cycles(), 1U);
+    const std::vector<MasterEntry> log = (*master)->log();
+    const MasterEntry* read = find_entry(log, 3, 0x03, 0x0000);
+    ASSERT_NE(read, nullptr);
+    EXPECT_TRUE(read->answered);
+    EXPECT_EQ((*bus)->receiver_errors(0), 0u);
+    EXPECT_EQ((*bus)->receiver_errors(1), 0u);
 }
 
 INSTANTIATE_TEST_SUITE_P(Sim, SimMasterOnBus, ::testing::Values(true, false),

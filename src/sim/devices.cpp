@@ -362,6 +362,7 @@ Result<std::unique_ptr<Device>> start_device(const std::string& profile, std::ui
         return error;
     }
     const int fd = modbus_get_socket(ctx);
+    set_line_speed(fd, line.baud);
     ::fcntl(fd, F_SETFL, ::fcntl(fd, F_GETFL) | O_NONBLOCK);
     modbus_mapping_t* map = modbus_mapping_new(0, 0, info->registers, 0);
     if (map == nullptr) {

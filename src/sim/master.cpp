@@ -237,6 +237,7 @@ Result<std::unique_ptr<Master>> start_master(const std::string& port, LineSettin
         modbus_free(ctx);
         return error;
     }
+    set_line_speed(modbus_get_socket(ctx), line.baud);
     // zyi-relay answers up to 0.5 s late; a second leaves room for the transmission.
     modbus_set_response_timeout(ctx, 1, 0);
     auto master = std::make_unique<SimMaster>(ctx, devices, max_cycles, pause_ms);

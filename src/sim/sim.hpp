@@ -22,6 +22,19 @@ namespace rtuscope::sim {
 // other port (not back to the writer: the simulated transceivers do not echo). Paced,
 // the hub releases bytes at the line's character time, so gaps between frames and
 // turnaround times are real; unpaced, bytes pass as fast as the kernel moves them.
+//
+// Paced, each port also has a receiver of its own, as each adapter on a real line has its
+// own UART: so that a detector trying one setting after another can be tested through the
+// real tty code. Its baud rate and stop bits are what whoever opened the port set on it
+// (read from the pty whenever someone writes, and every few milliseconds); its data bits
+// and parity are set_receiver_format's, since a Linux pty forces 8 data bits without
+// parity. While they match the line's baud rate and format (stop bits aside: a UART checks
+// only the first), or cannot be read, the port gets the bytes as sent. Otherwise it gets
+// what a 16550-style UART at its settings makes of the line's waveform (uart_model.hpp),
+// each byte when that UART completes it: garbage, break bytes, fewer or more bytes than
+// sent. A pty carries no error marks, so bytes received with parity or framing errors come
+// as received, as from an adapter whose driver reports no errors; receiver_errors counts
+// them. Unpaced, bytes have no times to sample, and every port gets them as sent.
 class VirtualBus {
   public:
     struct Options {
@@ -43,6 +56,12 @@ class VirtualBus {
     // Traffic nobody reads (a sniffer's port before it starts) is dropped beyond about a
     // second's worth, so a late reader does not get a flood of old frames.
     void unplug(std::size_t port);
+    // The data bits (5-8) and parity ('N', 'E', 'O') of a port's receiver; by default the
+    // line's. False, and nothing changes, for a port the bus does not have or a format
+    // that does not exist.
+    bool set_receiver_format(std::size_t port, std::uint8_t data_bits, char parity);
+    // Characters the port's receiver got with a parity or framing error (a break too).
+    [[nodiscard]] std::uint64_t receiver_errors(std::size_t port) const;
 
     struct Impl;
 

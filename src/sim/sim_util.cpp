@@ -10,6 +10,8 @@
 #include <span>
 
 #include "framing/crc.hpp"
+#include "input/tty_baud.hpp"
+#include "input/tty_speed.hpp"
 
 namespace rtuscope::sim {
 
@@ -22,6 +24,10 @@ std::vector<std::uint8_t> with_crc(std::vector<std::uint8_t> body) {
     body.push_back(static_cast<std::uint8_t>(crc & 0xFF));
     body.push_back(static_cast<std::uint8_t>(crc >> 8));
     return body;
+}
+
+void set_line_speed(int fd, std::uint32_t baud) {
+    if (!standard_speed(baud)) set_custom_baud(fd, baud);
 }
 
 bool write_all(int fd, const std::vector<std::uint8_t>& bytes, std::chrono::milliseconds timeout) {

@@ -1,5 +1,6 @@
-// Private helpers of the simulator: error text from errno, CRC-terminated frames, and the
-// splitter the simulated devices use to find frames in what they hear on the shared bus.
+// Private helpers of the simulator: error text from errno, CRC-terminated frames, a
+// pseudo-terminal's speed, and the splitter the simulated devices use to find frames in
+// what they hear on the shared bus.
 #pragma once
 
 #include <chrono>
@@ -20,6 +21,21 @@ std::vector<std::uint8_t> with_crc(std::vector<std::uint8_t> body);
 // error or after `timeout` without progress.
 bool write_all(int fd, const std::vector<std::uint8_t>& bytes,
                std::chrono::milliseconds timeout = std::chrono::milliseconds(1000));
+
+// libmodbus sets only the baud rates that have a B* constant (B9600 for any other): a rate
+// without one is set on its port `fd` as a custom rate, so that the bus's receivers take
+// the device at the line's speed.
+void set_line_speed(int fd, std::uint32_t baud);
+
+// The input baud rate and stop bits that whoever opened a pseudo-terminal's slave set,
+// read through its master (Linux answers a master's termios requests with its slave's).
+// Linux ptys force 8 data bits without parity, so those cannot be read. None when the
+// settings cannot be read.
+struct PtyLine {
+    std::uint32_t baud = 0;
+    std::uint8_t stop_bits = 1;
+};
+std::optional<PtyLine> read_pty_line(int master);
 
 // Splits the byte stream of a bus into frames by their CRC. A device hears every request
 // and every other device's answer; libmodbus's own receiver parses each frame as a request
