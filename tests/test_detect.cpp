@@ -9,6 +9,8 @@
 
 #include "detect/detect.hpp"
 #include "framing/char_time.hpp"
+#include "input/tty.hpp"
+#include "sim/uart_model.hpp"
 #include "support.hpp"
 
 namespace rtuscope {
@@ -241,6 +243,62 @@ TEST(DetectLine, NothingPlausibleIsNoVerdictAndMaxSecondsCutsItShort) {
     EXPECT_NE(text.find("No setting tried reads this line as Modbus RTU"), std::string::npos);
     EXPECT_NE(text.find("Stopped after 5.0 s (--max-seconds) with 5 settings tried."),
               std::string::npos);
+}
+
+// A line at `truth` as a port set to each candidate hears it with its errors marked:
+// the characters a UART at the candidate setting receives, as the kernel hands them over
+// with PARMRK (0xFF 0x00 X for a byte with a parity or framing error, 0xFF 0xFF for a data
+// byte 0xFF), read back by the tty code's decoder one byte a read.
+struct UartLine {
+    LineSettings truth;
+    std::vector<std::string> heard;
+
+    Listen listen() {
+        return [this](const LineSettings& line, Nanos most, const auto& /*enough*/,
+                      std::vector<Chunk>& out) -> Result<Nanos> {
+            heard.push_back(fmt::format("{} {}", line.baud, line.format()));
+            sim::UartResampler uart(truth, line);
+            Nanos end = 0;
+            for (const Chunk& c : polled_line(truth, 8)) {
+                const Nanos start = c.time - truth.char_time();
+                uart.send(start, c.bytes[0]);
+                end = c.time;
+            }
+            std::vector<sim::Received> received;
+            uart.take_until(end + 10 * truth.char_time(), received);
+            ParmrkDecoder parmrk;
+            for (const sim::Received& r : received) {
+                Bytes kernel;
+                if (r.parity_error || r.framing_error) {
+                    kernel = {0xFF, 0x00, r.byte};
+                } else if (r.byte == 0xFF) {
+                    kernel = {0xFF, 0xFF};
+                } else {
+                    kernel = {r.byte};
+                }
+                Chunk chunk;
+                chunk.time = r.time;
+                parmrk.feed(kernel, chunk.bytes, chunk.char_errors);
+                out.push_back(std::move(chunk));
+            }
+            return std::min(most, kNanosPerSecond);
+        };
+    }
+};
+
+TEST(DetectLine, ErrorsMarkedByThePortTellParityAndStopBitsApart) {
+    for (const char* format : {"8N1", "8E1", "8O1", "8N2"}) {
+        UartLine line{setting(19200, format), {}};
+        DetectOptions options;
+        options.bauds = {9600, 19200, 115200};
+        auto result = detect_line(line.listen(), options);
+        ASSERT_TRUE(result) << result.error().to_string();
+        const std::string report = format_detect_result(*result);
+        EXPECT_EQ(result->alike, 1U) << report;
+        EXPECT_EQ(fmt::format("{} {}", result->chosen.baud, result->chosen.format()),
+                  fmt::format("19200 {}", format))
+            << report;
+    }
 }
 
 }  // namespace

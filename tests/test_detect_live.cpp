@@ -1,0 +1,237 @@
+// Detection end to end through the real tty code: a virtual bus of the seed devices at
+// one setting, the detector listening on a pseudo-terminal of it at each candidate
+// setting. The hub delivers what a UART set to the candidate receives from the bus's
+// true setting (garbage at a wrong rate, the parity bit read as a stop bit ...); a
+// pseudo-terminal cannot carry parity settings or error marks, so the test tells the hub
+// each candidate's format and the port reports no errors, as some adapters' drivers do.
+// Then the setting chosen must decode the line: every frame with a valid CRC.
+#include <fcntl.h>
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <iostream>
+#include <random>
+#include <thread>
+
+#include "detect/detect.hpp"
+#include "input/tty.hpp"
+#include "input/tty_listener.hpp"
+#include "pipeline.hpp"
+#include "sim/sim.hpp"
+#include "support.hpp"
+
+namespace rtuscope {
+namespace {
+
+using namespace std::chrono_literals;
+
+constexpr std::size_t kSniffer = 5;
+
+LineSettings setting(std::uint32_t baud, std::string_view format) {
+    LineSettings line = *parse_line_format(format);
+    line.baud = baud;
+    return line;
+}
+
+std::string name(const LineSettings& line) {
+    return fmt::format("{} {}", line.baud, line.format());
+}
+
+Result<DetectResult> detect_on(sim::VirtualBus& bus, DetectOptions options) {
+    auto listener = TtyListener::open({bus.port_path(kSniffer)}, nullptr);
+    if (!listener) return listener.error();
+    return detect_line(
+        [&](const LineSettings& line, Nanos most, const auto& enough, std::vector<Chunk>& out) {
+            bus.set_receiver_format(kSniffer, line.data_bits, line.parity);
+            return (*listener)->listen(line, most, enough, out);
+        },
+        options);
+}
+
+// Sniffs the bus for `seconds` at `line`: the records.
+std::vector<Record> sniff(sim::VirtualBus& bus, const LineSettings& line, Nanos seconds) {
+    bus.set_receiver_format(kSniffer, line.data_bits, line.parity);
+    TtyOptions tty;
+    tty.ports = {bus.port_path(kSniffer)};
+    tty.line = line;
+    tty.duration = seconds;
+    auto source = open_tty_source(tty);
+    EXPECT_TRUE(source) << source.error().to_string();
+    if (!source) return {};
+    PipelineOptions options;
+    options.live = true;
+    test::CollectingSink sink;
+    EXPECT_TRUE(run_pipeline(**source, options, sink));
+    return sink.records;
+}
+
+// The detector's verdict, then a sniff at it: its frames all have a valid CRC.
+void expect_detected(sim::VirtualBus& bus, const LineSettings& truth, DetectOptions options = {}) {
+    options.bauds = {9600, 19200, 115200, 38400};
+    auto result = detect_on(bus, options);
+    ASSERT_TRUE(result) << result.error().to_string();
+    const std::string report = format_detect_result(*result);
+    ASSERT_GE(result->alike, 1U) << report;
+    // The true setting reads the line as well as any other.
+    bool among = false;
+    for (std::size_t i = 0; i < result->alike; ++i) among = among || name(result->ranked[i].line) == name(truth);
+    EXPECT_TRUE(among) << name(truth) << " is not among the best:\n" << report;
+    EXPECT_EQ(result->chosen.baud, truth.baud) << report;
+    // Where the characters' length or garbage tells the formats apart, the choice is it.
+    if (truth.format() == "8N1" || truth.format() == "8E1") {
+        EXPECT_EQ(result->chosen.format(), truth.format()) << report;
+    }
+    const std::vector<Record> records = sniff(bus, result->chosen, 1500 * test::kMs);
+    std::size_t good = 0;
+    for (const Record& r : records) {
+        if (r.kind == Kind::noise) continue;
+        EXPECT_EQ(r.frame.crc.status, CrcStatus::ok) << "at " << name(result->chosen);
+        if (r.frame.crc.status == CrcStatus::ok) ++good;
+    }
+    EXPECT_GE(good, 4U) << "at " << name(result->chosen);
+}
+
+struct SeedBus {
+    explicit SeedBus(const LineSettings& line, int pause_ms = 20) {
+        auto created = sim::VirtualBus::create(6, {line, true});
+        EXPECT_TRUE(created) << created.error().to_string();
+        if (!created) return;
+        bus = std::move(*created);
+        auto started = sim::start_seed_devices(*bus, line);
+        EXPECT_TRUE(started) << started.error().to_string();
+        if (started) devices = std::move(*started);
+        auto polling = sim::start_master(bus->port_path(0), line, {}, 0, pause_ms);
+        EXPECT_TRUE(polling) << polling.error().to_string();
+        if (polling) master = std::move(*polling);
+    }
+    ~SeedBus() {
+        if (master) master->stop();
+    }
+    std::unique_ptr<sim::VirtualBus> bus;
+    std::vector<std::unique_ptr<sim::Device>> devices;
+    std::unique_ptr<sim::Master> master;
+};
+
+struct LineCase {
+    std::uint32_t baud;
+    const char* format;
+};
+
+class DetectSeedBus : public testing::TestWithParam<LineCase> {};
+
+TEST_P(DetectSeedBus, FindsTheSettingsAndTheChoiceDecodesTheLine) {
+    const LineSettings truth = setting(GetParam().baud, GetParam().format);
+    SeedBus seed(truth);
+    ASSERT_TRUE(seed.bus && seed.master);
+    expect_detected(*seed.bus, truth);
+}
+
+std::string case_name(const testing::TestParamInfo<LineCase>& info) {
+    return fmt::format("{}_{}", info.param.baud, info.param.format);
+}
+
+INSTANTIATE_TEST_SUITE_P(ThreeRatesFourFormats, DetectSeedBus,
+                         testing::Values(LineCase{9600, "8N1"}, LineCase{9600, "8E1"},
+                                         LineCase{9600, "8O1"}, LineCase{9600, "8N2"},
+                                         LineCase{19200, "8N1"}, LineCase{19200, "8E1"},
+                                         LineCase{19200, "8O1"}, LineCase{19200, "8N2"},
+                                         LineCase{115200, "8N1"}, LineCase{115200, "8E1"},
+                                         LineCase{115200, "8O1"}, LineCase{115200, "8N2"}),
+                         case_name);
+
+TEST(DetectVirtualBus, OneSlaveOnly) {
+    const LineSettings truth = setting(19200, "8E1");
+    auto bus = sim::VirtualBus::create(6, {truth, true});
+    ASSERT_TRUE(bus);
+    auto device = sim::start_device("pdu485", 3, (*bus)->port_path(3), truth);
+    ASSERT_TRUE(device) << device.error().to_string();
+    auto master = sim::start_master((*bus)->port_path(0), truth, {}, 0, 20);
+    ASSERT_TRUE(master);
+    expect_detected(**bus, truth);
+    (*master)->stop();
+}
+
+TEST(DetectVirtualBus, ASlowPoll) {
+    // A request every half second or so (and the relay's slow answers).
+    const LineSettings truth = setting(9600, "8N1");
+    SeedBus seed(truth, 500);
+    ASSERT_TRUE(seed.bus && seed.master);
+    expect_detected(*seed.bus, truth);
+}
+
+TEST(DetectVirtualBus, AQuietLineIsReportedQuiet) {
+    auto bus = sim::VirtualBus::create(6, {setting(9600, "8N1"), true});
+    ASSERT_TRUE(bus);
+    DetectOptions options;
+    options.quiet_wait = 2 * kNanosPerSecond;
+    options.max_dwell = kNanosPerSecond;
+    auto result = detect_on(**bus, options);
+    ASSERT_TRUE(result) << result.error().to_string();
+    EXPECT_TRUE(result->quiet);
+    EXPECT_EQ(result->alike, 0U);
+}
+
+TEST(DetectVirtualBus, HeavyNoiseStillRanksTheRightSettingFirst) {
+    const LineSettings truth = setting(19200, "8N1");
+    SeedBus seed(truth);
+    ASSERT_TRUE(seed.bus && seed.master);
+    // Bursts of random bytes from another port, as much noise as traffic.
+    std::atomic<bool> stop{false};
+    std::thread noise([&] {
+        const int fd = open(seed.bus->port_path(4).c_str(), O_WRONLY | O_NOCTTY);
+        if (fd < 0) return;
+        std::mt19937 random(3);
+        while (!stop) {
+            std::uint8_t burst[12];
+            for (auto& b : burst) b = static_cast<std::uint8_t>(random());
+            [[maybe_unused]] const auto n = write(fd, burst, sizeof burst);
+            std::this_thread::sleep_for(15ms);
+        }
+        close(fd);
+    });
+    DetectOptions options;
+    options.bauds = {9600, 19200, 115200};
+    auto result = detect_on(*seed.bus, options);
+    stop = true;
+    noise.join();
+    ASSERT_TRUE(result) << result.error().to_string();
+    ASSERT_GE(result->alike, 1U) << format_detect_result(*result);
+    EXPECT_EQ(name(result->chosen), name(truth)) << format_detect_result(*result);
+}
+
+// Every rate of the default list at every format: minutes, so not part of ctest;
+// scripts/detect-matrix runs it.
+class DetectEveryRate : public testing::TestWithParam<LineCase> {};
+
+TEST_P(DetectEveryRate, DISABLED_FindsTheSettingsAndTheChoiceDecodesTheLine) {
+    const LineSettings truth = setting(GetParam().baud, GetParam().format);
+    SeedBus seed(truth);
+    ASSERT_TRUE(seed.bus && seed.master);
+    DetectOptions options;
+    auto result = detect_on(*seed.bus, options);
+    ASSERT_TRUE(result) << result.error().to_string();
+    const std::string report = format_detect_result(*result);
+    std::cout << "[ " << name(truth) << " ]\n" << report;
+    ASSERT_GE(result->alike, 1U) << report;
+    EXPECT_EQ(result->chosen.baud, truth.baud) << report;
+    bool among = false;
+    for (std::size_t i = 0; i < result->alike; ++i) among = among || name(result->ranked[i].line) == name(truth);
+    EXPECT_TRUE(among) << report;
+}
+
+std::vector<LineCase> every_rate_and_format() {
+    std::vector<LineCase> cases;
+    for (const std::uint32_t baud : default_bauds()) {
+        for (const char* format : {"8N1", "8E1", "8O1", "8N2"}) cases.push_back({baud, format});
+    }
+    return cases;
+}
+
+INSTANTIATE_TEST_SUITE_P(Matrix, DetectEveryRate, testing::ValuesIn(every_rate_and_format()),
+                         case_name);
+
+}  // namespace
+}  // namespace rtuscope
