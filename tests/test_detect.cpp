@@ -108,8 +108,11 @@ TEST(ScoreSetting, ARightSettingFramesPairsAndFitsItsTiming) {
     const LineSettings line = setting(9600, "8E1");
     const auto chunks = polled_line(line, 6);
     const SettingScore right = score_setting(line, chunks, kNanosPerSecond);
-    EXPECT_EQ(right.frames, 12U);
-    EXPECT_EQ(right.paired, 6U);
+    // The first request and the last answer, which listening may have cut, are left out:
+    // the first answer then answers no request heard.
+    EXPECT_EQ(right.frames, 10U);
+    EXPECT_EQ(right.bytes, 5U * 8U + 5U * 9U);
+    EXPECT_EQ(right.paired, 4U);
     EXPECT_DOUBLE_EQ(right.coverage(), 1.0);
     EXPECT_EQ(right.timing_fit, TimingFit::exact);
     EXPECT_DOUBLE_EQ(right.score, 100.0);
@@ -117,7 +120,7 @@ TEST(ScoreSetting, ARightSettingFramesPairsAndFitsItsTiming) {
     // The same bytes at 8N1 (the parity bit taken for the stop bit): the spacing says
     // the characters are longer than this format's.
     const SettingScore shorter = score_setting(setting(9600, "8N1"), chunks, kNanosPerSecond);
-    EXPECT_EQ(shorter.frames, 12U);
+    EXPECT_EQ(shorter.frames, 10U);
     EXPECT_EQ(shorter.timing_fit, TimingFit::slower);
     EXPECT_LT(shorter.score, right.score);
     // At 8E2 they come sooner than its characters last: not it.
@@ -131,10 +134,9 @@ TEST(ScoreSetting, ErrorsThePortReportsAndGarbageScoreLow) {
     auto chunks = polled_line(line, 6);
     const SettingScore clean = score_setting(line, chunks, kNanosPerSecond);
     // Every other byte with a framing error, as an 8N1 receiver reports 8E1 traffic.
-    std::uint64_t marked = 0;
-    for (std::size_t i = 0; i < chunks.size(); i += 2, ++marked) chunks[i].char_errors = {0};
+    for (std::size_t i = 0; i < chunks.size(); i += 2) chunks[i].char_errors = {0};
     const SettingScore errors = score_setting(line, chunks, kNanosPerSecond);
-    EXPECT_EQ(errors.char_errors, marked);
+    EXPECT_NEAR(static_cast<double>(errors.char_errors), static_cast<double>(errors.bytes) / 2, 1.0);
     EXPECT_LT(errors.score, 0.6 * clean.score);
 
     const SettingScore noise = score_setting(line, garbage(300, 1), kNanosPerSecond);
@@ -187,8 +189,8 @@ TEST(DetectLine, FindsTheRateAtTheFirstFormatThenTriesTheOthersThereOnly) {
     EXPECT_EQ(result->confidence, "high");
     EXPECT_TRUE(result->errors_reported);
     const std::string text = format_detect_result(*result);
-    EXPECT_NE(text.find("Best: 19200 8E1 (confidence high): 16 frames with a valid CRC hold "
-                        "100 % of the bytes, 8 answers paired with requests, no parity or "
+    EXPECT_NE(text.find("Best: 19200 8E1 (confidence high): 14 frames with a valid CRC hold "
+                        "100 % of the bytes, 6 answers paired with their requests, no parity or "
                         "framing errors, bytes one 11-bit character apart."),
               std::string::npos)
         << text;

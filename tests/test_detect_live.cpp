@@ -12,7 +12,6 @@
 
 #include <atomic>
 #include <chrono>
-#include <iostream>
 #include <random>
 #include <thread>
 
@@ -21,35 +20,18 @@
 #include "input/tty_listener.hpp"
 #include "pipeline.hpp"
 #include "sim/sim.hpp"
+#include "detect_support.hpp"
 #include "support.hpp"
 
 namespace rtuscope {
 namespace {
 
 using namespace std::chrono_literals;
-
-constexpr std::size_t kSniffer = 5;
-
-LineSettings setting(std::uint32_t baud, std::string_view format) {
-    LineSettings line = *parse_line_format(format);
-    line.baud = baud;
-    return line;
-}
-
-std::string name(const LineSettings& line) {
-    return fmt::format("{} {}", line.baud, line.format());
-}
-
-Result<DetectResult> detect_on(sim::VirtualBus& bus, DetectOptions options) {
-    auto listener = TtyListener::open({bus.port_path(kSniffer)}, nullptr);
-    if (!listener) return listener.error();
-    return detect_line(
-        [&](const LineSettings& line, Nanos most, const auto& enough, std::vector<Chunk>& out) {
-            bus.set_receiver_format(kSniffer, line.data_bits, line.parity);
-            return (*listener)->listen(line, most, enough, out);
-        },
-        options);
-}
+using test::detect_on;
+using test::kSniffer;
+using test::name;
+using test::SeedBus;
+using test::setting;
 
 // Sniffs the bus for `seconds` at `line`: the records.
 std::vector<Record> sniff(sim::VirtualBus& bus, const LineSettings& line, Nanos seconds) {
@@ -69,7 +51,9 @@ std::vector<Record> sniff(sim::VirtualBus& bus, const LineSettings& line, Nanos 
 }
 
 // The detector's verdict, then a sniff at it: its frames all have a valid CRC.
-void expect_detected(sim::VirtualBus& bus, const LineSettings& truth, DetectOptions options = {}) {
+// `frames`: how many a sniff of 3 s is sure to hear.
+void expect_detected(sim::VirtualBus& bus, const LineSettings& truth, std::size_t frames = 4) {
+    DetectOptions options;
     options.bauds = {9600, 19200, 115200, 38400};
     auto result = detect_on(bus, options);
     ASSERT_TRUE(result) << result.error().to_string();
@@ -84,36 +68,19 @@ void expect_detected(sim::VirtualBus& bus, const LineSettings& truth, DetectOpti
     if (truth.format() == "8N1" || truth.format() == "8E1") {
         EXPECT_EQ(result->chosen.format(), truth.format()) << report;
     }
-    const std::vector<Record> records = sniff(bus, result->chosen, 1500 * test::kMs);
+    const std::vector<Record> records = sniff(bus, result->chosen, 3 * kNanosPerSecond);
     std::size_t good = 0;
     for (const Record& r : records) {
-        if (r.kind == Kind::noise) continue;
-        EXPECT_EQ(r.frame.crc.status, CrcStatus::ok) << "at " << name(result->chosen);
+        // A sniffer that opens the port mid-frame hears the rest of one; the frame on the
+        // line when it stops is cut.
+        if (r.kind == Kind::noise || r.number == 1 || r.notes.has(note_id::cut_by_stop)) continue;
+        EXPECT_EQ(r.frame.crc.status, CrcStatus::ok)
+            << "at " << name(result->chosen) << ": record " << r.number << " of " << records.size()
+            << ", " << to_string(r.kind) << ", " << r.frame.bytes.size() << " bytes";
         if (r.frame.crc.status == CrcStatus::ok) ++good;
     }
-    EXPECT_GE(good, 4U) << "at " << name(result->chosen);
+    EXPECT_GE(good, frames) << "at " << name(result->chosen) << ": " << records.size() << " records\n" << report;
 }
-
-struct SeedBus {
-    explicit SeedBus(const LineSettings& line, int pause_ms = 20) {
-        auto created = sim::VirtualBus::create(6, {line, true});
-        EXPECT_TRUE(created) << created.error().to_string();
-        if (!created) return;
-        bus = std::move(*created);
-        auto started = sim::start_seed_devices(*bus, line);
-        EXPECT_TRUE(started) << started.error().to_string();
-        if (started) devices = std::move(*started);
-        auto polling = sim::start_master(bus->port_path(0), line, {}, 0, pause_ms);
-        EXPECT_TRUE(polling) << polling.error().to_string();
-        if (polling) master = std::move(*polling);
-    }
-    ~SeedBus() {
-        if (master) master->stop();
-    }
-    std::unique_ptr<sim::VirtualBus> bus;
-    std::vector<std::unique_ptr<sim::Device>> devices;
-    std::unique_ptr<sim::Master> master;
-};
 
 struct LineCase {
     std::uint32_t baud;
@@ -125,7 +92,7 @@ class DetectSeedBus : public testing::TestWithParam<LineCase> {};
 TEST_P(DetectSeedBus, FindsTheSettingsAndTheChoiceDecodesTheLine) {
     const LineSettings truth = setting(GetParam().baud, GetParam().format);
     SeedBus seed(truth);
-    ASSERT_TRUE(seed.bus && seed.master);
+    ASSERT_TRUE(seed.error.empty()) << seed.error;
     expect_detected(*seed.bus, truth);
 }
 
@@ -150,7 +117,9 @@ TEST(DetectVirtualBus, OneSlaveOnly) {
     ASSERT_TRUE(device) << device.error().to_string();
     auto master = sim::start_master((*bus)->port_path(0), truth, {}, 0, 20);
     ASSERT_TRUE(master);
-    expect_detected(**bus, truth);
+    // The master waits in vain for the three devices that are not there: a frame or two a
+    // second.
+    expect_detected(**bus, truth, 2);
     (*master)->stop();
 }
 
@@ -158,7 +127,7 @@ TEST(DetectVirtualBus, ASlowPoll) {
     // A request every half second or so (and the relay's slow answers).
     const LineSettings truth = setting(9600, "8N1");
     SeedBus seed(truth, 500);
-    ASSERT_TRUE(seed.bus && seed.master);
+    ASSERT_TRUE(seed.error.empty()) << seed.error;
     expect_detected(*seed.bus, truth);
 }
 
@@ -177,7 +146,7 @@ TEST(DetectVirtualBus, AQuietLineIsReportedQuiet) {
 TEST(DetectVirtualBus, HeavyNoiseStillRanksTheRightSettingFirst) {
     const LineSettings truth = setting(19200, "8N1");
     SeedBus seed(truth);
-    ASSERT_TRUE(seed.bus && seed.master);
+    ASSERT_TRUE(seed.error.empty()) << seed.error;
     // Bursts of random bytes from another port, as much noise as traffic.
     std::atomic<bool> stop{false};
     std::thread noise([&] {
@@ -199,39 +168,12 @@ TEST(DetectVirtualBus, HeavyNoiseStillRanksTheRightSettingFirst) {
     noise.join();
     ASSERT_TRUE(result) << result.error().to_string();
     ASSERT_GE(result->alike, 1U) << format_detect_result(*result);
-    EXPECT_EQ(name(result->chosen), name(truth)) << format_detect_result(*result);
+    // 8N2 reads 8N1 traffic byte for byte (a UART checks one stop bit): where the reads
+    // are too coarse to time characters, only the noise's luck ranks them.
+    EXPECT_EQ(result->chosen.baud, truth.baud) << format_detect_result(*result);
+    EXPECT_TRUE(result->chosen.format() == "8N1" || result->chosen.format() == "8N2")
+        << format_detect_result(*result);
 }
-
-// Every rate of the default list at every format: minutes, so not part of ctest;
-// scripts/detect-matrix runs it.
-class DetectEveryRate : public testing::TestWithParam<LineCase> {};
-
-TEST_P(DetectEveryRate, DISABLED_FindsTheSettingsAndTheChoiceDecodesTheLine) {
-    const LineSettings truth = setting(GetParam().baud, GetParam().format);
-    SeedBus seed(truth);
-    ASSERT_TRUE(seed.bus && seed.master);
-    DetectOptions options;
-    auto result = detect_on(*seed.bus, options);
-    ASSERT_TRUE(result) << result.error().to_string();
-    const std::string report = format_detect_result(*result);
-    std::cout << "[ " << name(truth) << " ]\n" << report;
-    ASSERT_GE(result->alike, 1U) << report;
-    EXPECT_EQ(result->chosen.baud, truth.baud) << report;
-    bool among = false;
-    for (std::size_t i = 0; i < result->alike; ++i) among = among || name(result->ranked[i].line) == name(truth);
-    EXPECT_TRUE(among) << report;
-}
-
-std::vector<LineCase> every_rate_and_format() {
-    std::vector<LineCase> cases;
-    for (const std::uint32_t baud : default_bauds()) {
-        for (const char* format : {"8N1", "8E1", "8O1", "8N2"}) cases.push_back({baud, format});
-    }
-    return cases;
-}
-
-INSTANTIATE_TEST_SUITE_P(Matrix, DetectEveryRate, testing::ValuesIn(every_rate_and_format()),
-                         case_name);
 
 }  // namespace
 }  // namespace rtuscope

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -13,6 +14,7 @@
 #include "framing/char_time.hpp"
 #include "input/sources.hpp"
 #include "input/tty_listener.hpp"
+#include "sim/sim.hpp"
 #include "stop_signals.hpp"
 #include "util/text.hpp"
 
@@ -21,6 +23,8 @@ namespace {
 
 struct DetectArgs {
     std::vector<std::string> inputs;
+    bool demo = false;
+    std::string demo_line = "19200 8E1";
     std::vector<std::string> bauds;
     bool all_formats = false;
     double max_seconds = 120;
@@ -31,14 +35,18 @@ bool is_port(const std::string& path) {
     return stat(path.c_str(), &st) == 0 && S_ISCHR(st.st_mode);
 }
 
-Result<DetectResult> listen_to_ports(const std::vector<std::string>& ports,
-                                     const DetectOptions& options) {
+// `before_listening`: told each setting before the ports are set to it (the demo's bus,
+// which a pseudo-terminal cannot tell the format).
+Result<DetectResult> listen_to_ports(
+    const std::vector<std::string>& ports, const DetectOptions& options,
+    const std::function<void(const LineSettings&)>& before_listening = {}) {
     std::vector<std::string> notices;
     auto listener = TtyListener::open(ports, &notices);
     if (!listener) return listener.error();
     for (const std::string& notice : notices) fmt::print(stderr, "rtuscope: note: {}\n", notice);
     return detect_line(
         [&](const LineSettings& line, Nanos most, const auto& enough, std::vector<Chunk>& out) {
+            if (before_listening) before_listening(line);
             return (*listener)->listen(line, most, enough, out, options.stop);
         },
         options);
@@ -50,20 +58,42 @@ std::string joined(const std::vector<std::string>& ports) {
     return out;
 }
 
-int detect_ports(const DetectArgs& args, DetectOptions options) {
+int detect_ports(const std::vector<std::string>& ports, DetectOptions options,
+                 double max_seconds,
+                 const std::function<void(const LineSettings&)>& before_listening = {}) {
     install_stop_handlers();
     options.stop = &g_stop;
     fmt::print(stderr,
                "rtuscope: listening to {} at up to {} settings, for at most {:.0f} s; nothing is "
                "sent\n",
-               joined(args.inputs), options.bauds.size() * options.formats.size(),
-               args.max_seconds);
-    auto result = listen_to_ports(args.inputs, options);
+               joined(ports), options.bauds.size() * options.formats.size(), max_seconds);
+    auto result = listen_to_ports(ports, options, before_listening);
     if (!result) return print_error(result.error()), 1;
     fmt::print("{}", format_detect_result(*result));
     if (result->alike == 0) return 1;
-    fmt::print("Use: rtuscope sniff {} {}\n", joined(args.inputs), line_options(result->chosen));
+    fmt::print("Use: rtuscope sniff {} {}\n", joined(ports), line_options(result->chosen));
     return 0;
+}
+
+// The seed devices on a virtual bus at a setting detect is not told: its sniffer port
+// gets what a UART at each candidate setting would receive.
+int detect_demo(const DetectArgs& args, const DetectOptions& options) {
+    auto line = parse_line_settings(args.demo_line);
+    if (!line) return print_error(line.error()), 2;
+    auto bus = sim::VirtualBus::create(6, {*line, true});
+    if (!bus) return print_error(bus.error()), 1;
+    auto devices = sim::start_seed_devices(**bus, *line);
+    if (!devices) return print_error(devices.error()), 1;
+    auto master = sim::start_master((*bus)->port_path(0), *line, {}, 0, 20);
+    if (!master) return print_error(master.error()), 1;
+    constexpr std::size_t kSniffer = 5;
+    const int code = detect_ports({(*bus)->port_path(kSniffer)}, options, args.max_seconds,
+                                  [&](const LineSettings& candidate) {
+                                      (*bus)->set_receiver_format(kSniffer, candidate.data_bits,
+                                                                  candidate.parity);
+                                  });
+    (*master)->stop();
+    return code;
 }
 
 // A capture's timing: bytes timed one by one give the character time; the bytes
@@ -120,12 +150,11 @@ int detect_file(const std::string& path) {
     }
     if (info.line) {
         // How the bytes read at the settings they were recorded at.
-        const SettingScore s = score_setting(*info.line, chunks, 0);
-        fmt::print("At {} {}: {} {} with a valid CRC hold {:.0f} % of the bytes, {} paired "
-                   "with requests.\n",
+        const SettingScore s = score_setting(*info.line, chunks, 0, true);
+        fmt::print("At {} {}: {} {} with a valid CRC hold {:.0f} % of the bytes, {}.\n",
                    info.line->baud, info.line->format(), s.frames,
                    plural(s.frames, "frame", "frames"), 100.0 * s.coverage(),
-                   s.paired == 1 ? std::string("1 answer") : fmt::format("{} answers", s.paired));
+                   answers_paired(s.paired));
     }
     if (suggested && (!info.line || info.line->baud != suggested->baud)) {
         fmt::print("Use: rtuscope decode {} --baud {}\n", path, suggested->baud);
@@ -153,8 +182,13 @@ int run_detect(const DetectArgs& args) {
         if (!bauds) return print_error(bauds.error()), 2;
         options.bauds = *bauds;
     }
+    if (args.demo == !args.inputs.empty()) {
+        print_error(Error{"detect takes a port, two ports, a capture file, or --demo"});
+        return 2;
+    }
+    if (args.demo) return detect_demo(args, options);
     const bool ports = std::any_of(args.inputs.begin(), args.inputs.end(), is_port);
-    if (ports) return detect_ports(args, options);
+    if (ports) return detect_ports(args.inputs, options, args.max_seconds);
     if (args.inputs.size() != 1) {
         print_error(Error{"detect takes one capture file, or one or two serial ports"});
         return 2;
@@ -172,8 +206,12 @@ void add_detect_command(CLI::App& app, int& exit_code) {
         "a capture's rate from its byte timing");
     cmd->add_option("INPUT", args->inputs,
                     "Serial port (two for a full-duplex tap), or a capture file")
-        ->required()
-        ->expected(1, 2);
+        ->expected(0, 2);
+    cmd->add_flag("--demo", args->demo,
+                  "Detect the simulated seed devices' line on a virtual bus (no hardware)");
+    cmd->add_option("--demo-line", args->demo_line,
+                    "The demo bus's baud rate and format, for detect to find (default "
+                    "\"19200 8E1\")");
     cmd->add_option("--bauds", args->bauds,
                     "Baud rates to try, in order (default 9600,19200,115200,38400,57600,4800,"
                     "2400,14400,1200)")

@@ -48,9 +48,12 @@ struct SettingScore {
     [[nodiscard]] double coverage() const;  // share of the bytes in valid frames
 };
 
-// Frames and pairs `chunks` (one setting's, in time order) at `line` and scores them.
+// Frames and pairs `chunks` (one setting's, in time order) at `line` and scores them,
+// without the first and last bursts of bytes where there are more (pieces of frames cut
+// by the start and end of listening).
+// A recording read whole (`whole` true) keeps its first and last bursts.
 SettingScore score_setting(const LineSettings& line, std::span<const Chunk> chunks,
-                           Nanos listened);
+                           Nanos listened, bool whole = false);
 
 // The formats tried by default, and with --all-formats.
 std::vector<LineSettings> default_formats(bool all_formats);
@@ -81,6 +84,7 @@ struct DetectResult {
     std::string confidence;    // "high", "medium", "low"
     bool quiet = false;        // nothing was heard at all
     bool cut_short = false;    // --max-seconds or a stop ended it before every setting
+    bool interrupted = false;  // a stop (a signal) did
     Nanos listened = 0;
     bool errors_reported = false;  // the port marked parity or framing errors somewhere
 };
@@ -91,6 +95,8 @@ Result<DetectResult> detect_line(const Listen& listen, const DetectOptions& opti
 
 // The ranked settings as a table, the verdict and why, for the terminal.
 std::string format_detect_result(const DetectResult& result);
+// "3 answers paired with their requests"
+std::string answers_paired(std::uint64_t paired);
 // "--baud 19200 --format 8E1"
 std::string line_options(const LineSettings& line);
 

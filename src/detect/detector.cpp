@@ -11,8 +11,17 @@ namespace {
 constexpr double kReadsWell = 60.0;
 // Below this nothing was found.
 constexpr double kPlausible = 10.0;
-// Settings within this share of the best score read the line alike.
-constexpr double kAlike = 0.97;
+// Settings within this share of the best score, whose timing says the same, read the
+// line alike: the bytes heard at two settings come at different moments, and the first
+// and last frames of each are cut where listening started and stopped.
+constexpr double kAlike = 0.9;
+
+// Timing that fits, or says nothing, counts alike; too slow or too fast for a format
+// sets it apart.
+bool timing_alike(TimingFit a, TimingFit b) {
+    const auto fits = [](TimingFit t) { return t == TimingFit::exact || t == TimingFit::unknown; };
+    return a == b || (fits(a) && fits(b));
+}
 
 // Formats in the order preferred among settings that read a line alike: even parity is
 // Modbus's default (Modbus over Serial Line 2.5.1), 8N1 the most common otherwise, and
@@ -52,6 +61,7 @@ std::vector<LineSettings> default_formats(bool all_formats) {
     std::vector<std::string_view> names = {"8N1", "8E1", "8O1", "8N2"};
     if (all_formats) names.insert(names.end(), {"7E1", "7O1", "7N2", "8E2", "8O2", "7E2", "7O2"});
     std::vector<LineSettings> formats;
+    formats.reserve(names.size());
     for (const std::string_view name : names) formats.push_back(*parse_line_format(name));
     return formats;
 }
@@ -83,6 +93,7 @@ Result<DetectResult> detect_line(const Listen& listen, const DetectOptions& opti
         const Nanos left = options.max_total - result.listened;
         if (left <= 0 || stopped()) {
             result.cut_short = true;
+            result.interrupted = stopped();
             break;
         }
         heard.clear();
@@ -104,7 +115,7 @@ Result<DetectResult> detect_line(const Listen& listen, const DetectOptions& opti
             heard);
         if (!listened) return listened.error();
         result.listened += *listened;
-        SettingScore score = score_setting(line, heard, *listened);
+        const SettingScore score = score_setting(line, heard, *listened);
         if (first && score.bytes == 0) {
             result.quiet = true;
             result.ranked.push_back(score);
@@ -112,7 +123,7 @@ Result<DetectResult> detect_line(const Listen& listen, const DetectOptions& opti
         }
         if (!found_baud && score.score >= kReadsWell) found_baud = line.baud;
         result.errors_reported = result.errors_reported || score.char_errors > 0;
-        result.ranked.push_back(std::move(score));
+        result.ranked.push_back(score);
     }
 
     auto& ranked = result.ranked;
@@ -121,15 +132,18 @@ Result<DetectResult> detect_line(const Listen& listen, const DetectOptions& opti
     });
     if (ranked.empty() || ranked.front().score < kPlausible) return result;
     const double best = ranked.front().score;
-    const auto alike_end = std::partition_point(
-        ranked.begin(), ranked.end(), [&](const SettingScore& s) { return s.score >= best * kAlike; });
+    const TimingFit best_timing = ranked.front().timing_fit;
+    const auto alike_end =
+        std::stable_partition(ranked.begin(), ranked.end(), [&](const SettingScore& s) {
+            return s.score >= best * kAlike && timing_alike(s.timing_fit, best_timing);
+        });
     std::stable_sort(ranked.begin(), alike_end, [](const SettingScore& a, const SettingScore& b) {
         return preference(a.line) < preference(b.line);
     });
     result.alike = static_cast<std::size_t>(alike_end - ranked.begin());
     result.chosen = ranked.front().line;
     const SettingScore& top = ranked.front();
-    if (top.score >= 80 && top.frames >= 5) {
+    if (top.score >= 80 && top.frames >= 5 && top.paired >= 2) {
         result.confidence = "high";
     } else if (top.score >= 40 && top.frames >= 3) {
         result.confidence = "medium";

@@ -29,6 +29,11 @@ std::string formats_of(std::span<const SettingScore> settings) {
 
 }  // namespace
 
+std::string answers_paired(std::uint64_t paired) {
+    return paired == 1 ? std::string("1 answer paired with its request")
+                       : fmt::format("{} answers paired with their requests", paired);
+}
+
 std::string line_options(const LineSettings& line) {
     return fmt::format("--baud {} --format {}", line.baud, line.format());
 }
@@ -64,9 +69,8 @@ std::string format_detect_result(const DetectResult& r) {
     } else {
         const SettingScore& s = r.ranked.front();
         std::string why = fmt::format(
-            "{} {} with a valid CRC hold {:.0f} % of the bytes, {} paired with requests",
-            s.frames, plural(s.frames, "frame", "frames"), 100.0 * s.coverage(),
-            s.paired == 1 ? std::string("1 answer") : fmt::format("{} answers", s.paired));
+            "{} {} with a valid CRC hold {:.0f} % of the bytes, {}", s.frames,
+            plural(s.frames, "frame", "frames"), 100.0 * s.coverage(), answers_paired(s.paired));
         if (r.errors_reported) {
             why += s.char_errors == 0 ? std::string(", no parity or framing errors")
                                       : fmt::format(", {} parity or framing {}", s.char_errors,
@@ -95,8 +99,8 @@ std::string format_detect_result(const DetectResult& r) {
         }
     }
     if (r.cut_short) {
-        line(fmt::format("Stopped after {} (--max-seconds) with {} settings tried.",
-                         seconds(r.listened), r.ranked.size()));
+        line(fmt::format("Stopped after {} ({}) with {} settings tried.", seconds(r.listened),
+                         r.interrupted ? "interrupted" : "--max-seconds", r.ranked.size()));
     }
     return out;
 }

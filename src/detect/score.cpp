@@ -55,10 +55,15 @@ class Counting final : public RecordSink {
 
 TimingFit timing_fit(const LineSettings& line, const std::optional<CharTimeEstimate>& timing) {
     if (!timing) return TimingFit::unknown;
+    // Within half a bit of the format's length: a reader's jitter at high rates is a few
+    // per cent of a character.
     const double bits = static_cast<double>(timing->char_time) * line.baud / kNanosPerSecond;
-    const double ratio = bits / line.bits_per_char();
-    if (std::abs(std::log(ratio)) <= 0.04) return TimingFit::exact;
-    return ratio > 1 ? TimingFit::slower : TimingFit::faster;
+    const double length = line.bits_per_char();
+    if (std::abs(bits - length) <= 0.5) return TimingFit::exact;
+    if (bits < length) return TimingFit::faster;
+    // Spacing beyond the longest character (12 bits) is the reader's, not the line's: a
+    // port read every few characters.
+    return bits <= 12.5 ? TimingFit::slower : TimingFit::unknown;
 }
 
 }  // namespace
@@ -67,8 +72,24 @@ double SettingScore::coverage() const {
     return bytes == 0 ? 0.0 : static_cast<double>(frame_bytes) / static_cast<double>(bytes);
 }
 
-SettingScore score_setting(const LineSettings& line, std::span<const Chunk> chunks,
-                           Nanos listened) {
+// Listening starts and stops at moments that have nothing to do with the line: the first
+// and last bursts of bytes may be pieces of frames. Where there are more, they are left
+// out, so that settings heard at different moments compare on whole frames.
+std::span<const Chunk> whole_bursts(const LineSettings& line, std::span<const Chunk> chunks) {
+    std::vector<std::size_t> starts;  // the chunks that follow a silence
+    for (std::size_t i = 1; i < chunks.size(); ++i) {
+        if (has_time(chunks[i].time) && has_time(chunks[i - 1].time) &&
+            chunks[i].time - chunks[i - 1].time > line.t35()) {
+            starts.push_back(i);
+        }
+    }
+    if (starts.size() < 3) return chunks;
+    return chunks.subspan(starts.front(), starts.back() - starts.front());
+}
+
+SettingScore score_setting(const LineSettings& line, std::span<const Chunk> heard,
+                           Nanos listened, bool whole) {
+    const std::span<const Chunk> chunks = whole ? heard : whole_bursts(line, heard);
     SettingScore s;
     s.line = line;
     s.listened = listened;
@@ -90,19 +111,20 @@ SettingScore score_setting(const LineSettings& line, std::span<const Chunk> chun
     // Heard bytes always make records: a source in memory has no read error to give.
     (void)run_pipeline(source, options, counting);
 
-    // A right setting puts the bytes in frames with a valid CRC, without errors, and its
-    // answers follow requests; a wrong one gives noise, errors and no pairs. A few frames
-    // are needed before any of it counts: a CRC matches by chance once in 65536 tries.
+    // A right setting puts the bytes in frames with a valid CRC, without errors, at the
+    // spacing of its characters; a wrong one gives noise and errors. A few frames, or
+    // fewer answering requests, are needed before any of it counts: a CRC matches by
+    // chance once in 65536 tries, a pair far less often. How many answers came within the
+    // time listened depends on the moment, not on the setting, so beyond that it does not
+    // rank settings.
     const double coverage = std::min(1.0, s.coverage());
     const double clean =
         1.0 - std::min(1.0, static_cast<double>(s.char_errors) / static_cast<double>(s.bytes));
-    const double paired_share =
-        s.frames == 0 ? 0.0 : std::min(1.0, 2.0 * static_cast<double>(s.paired) / static_cast<double>(s.frames));
-    const double evidence = std::min(1.0, static_cast<double>(s.frames) / 3.0);
+    const double evidence = std::min(1.0, static_cast<double>(s.frames + s.paired) / 3.0);
     double timing = 1.0;
     if (s.timing_fit == TimingFit::slower) timing = 0.9;
     if (s.timing_fit == TimingFit::faster) timing = 0.3;
-    s.score = 100.0 * coverage * clean * (0.8 + 0.2 * paired_share) * evidence * timing;
+    s.score = 100.0 * coverage * clean * evidence * timing;
     return s;
 }
 

@@ -56,7 +56,8 @@ std::optional<CharTimeEstimate> CharTimeEstimator::estimate() const {
             best_from = from;
         }
     }
-    if (best_count < kMinAgreeing) return std::nullopt;
+    // A spacing that few intervals keep is a reader's jitter, not the line's.
+    if (best_count < kMinAgreeing || best_count * 10 < sorted.size() * 3) return std::nullopt;
     return CharTimeEstimate{sorted[best_from + best_count / 2], best_count, sorted.size()};
 }
 

@@ -28,7 +28,7 @@ class CharTimeEstimator {
     // Counts the interval to the previous chunk when both are one byte with a time.
     void chunk(const Chunk& chunk);
     void reset();
-    // None until enough intervals agree (16).
+    // None until enough intervals agree: 16, and 30 % of those measured.
     [[nodiscard]] std::optional<CharTimeEstimate> estimate() const;
     [[nodiscard]] std::uint64_t measured() const { return intervals_.size(); }
 

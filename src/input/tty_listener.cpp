@@ -107,6 +107,9 @@ Result<Nanos> TtyListener::listen(const LineSettings& line, Nanos most, const En
     }
     const std::size_t first = out.size();
     const Nanos start = monotonic_now();
+    // A port that changes speed while a character is arriving makes garbage of it, and an
+    // adapter takes a moment to apply new settings: what comes at once is not heard.
+    constexpr Nanos kSettle = 20'000'000;
     constexpr Nanos kAskEvery = 50'000'000;
     Nanos next_ask = start + kAskEvery;
     std::vector<pollfd> fds;
@@ -139,6 +142,7 @@ Result<Nanos> TtyListener::listen(const LineSettings& line, Nanos most, const En
             }
             Chunk chunk;
             chunk.time = monotonic_now();
+            if (chunk.time - start < kSettle) continue;
             chunk.channel = p.channel;
             p.parmrk.feed(std::span(buffer.data(), static_cast<std::size_t>(got)), chunk.bytes,
                           chunk.char_errors);

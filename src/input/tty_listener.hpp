@@ -33,7 +33,8 @@ class TtyListener {
     // Sets `line` on the ports, drops what they buffered, and appends to `out` what they
     // give, one chunk per read stamped when read (monotonic time; a channel per port of a
     // tap), with the bytes received with a parity or framing error marked, until `most`
-    // has passed, `enough` says so or `stop` is set. Returns how long it listened.
+    // has passed, `enough` says so or `stop` is set; what comes in the first 20 ms, while
+    // the port settles, is dropped. Returns how long it listened.
     Result<Nanos> listen(const LineSettings& line, Nanos most, const Enough& enough,
                          std::vector<Chunk>& out, const std::atomic<bool>* stop = nullptr);
 
