@@ -9,6 +9,7 @@
 
 #include "detect/detect.hpp"
 #include "framing/char_time.hpp"
+#include "input/sources.hpp"
 #include "input/tty.hpp"
 #include "sim/uart_model.hpp"
 #include "support.hpp"
@@ -102,6 +103,34 @@ TEST(CharTimeFit, NamesTheRateAndCharacterLength) {
     EXPECT_EQ(best(setting(1200, "7E1").char_time()), "1200/10");
     EXPECT_EQ(best(1'144'000), "9600/11");  // the flow meter's captures
     EXPECT_EQ(best(1'350'000), "none");  // 13 bits at 9600, 19.4 at 14400
+}
+
+// Captures timed one byte a line, as a logic analyser's export gives them, at every rate
+// detect tries and every format: read back through the capture reader, their timing
+// gives the rate and the character length.
+TEST(CharTimeFit, GeneratedCapturesAtEveryRateAndFormat) {
+    for (const std::uint32_t baud : default_bauds()) {
+        for (const LineSettings& format : default_formats(true)) {
+            LineSettings line = format;
+            line.baud = baud;
+            std::string capture = "# rtuscope capture v1\n# serial 9600 8N1\n";
+            for (const Chunk& c : polled_line(line, 4)) {
+                capture += fmt::format("{:.9f} {:02X}\n", static_cast<double>(c.time) / 1e9,
+                                       c.bytes[0]);
+            }
+            auto source = source_from_memory(capture, "generated", InputFormat::capture);
+            ASSERT_TRUE(source) << source.error().to_string();
+            CharTimeEstimator estimator;
+            Chunk chunk;
+            while (*(*source)->next(chunk)) estimator.chunk(chunk);
+            const auto estimate = estimator.estimate();
+            ASSERT_TRUE(estimate.has_value()) << baud << " " << line.format();
+            const auto fits = fit_char_time(estimate->char_time);
+            ASSERT_FALSE(fits.empty()) << baud << " " << line.format();
+            EXPECT_EQ(fits.front().baud, baud) << line.format();
+            EXPECT_EQ(fits.front().bits_per_char, line.bits_per_char()) << baud << " " << line.format();
+        }
+    }
 }
 
 TEST(ScoreSetting, ARightSettingFramesPairsAndFitsItsTiming) {

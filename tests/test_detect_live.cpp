@@ -8,6 +8,7 @@
 #include <fcntl.h>
 #include <fmt/format.h>
 #include <gtest/gtest.h>
+#include <termios.h>
 #include <unistd.h>
 
 #include <atomic>
@@ -141,6 +142,36 @@ TEST(DetectVirtualBus, AQuietLineIsReportedQuiet) {
     ASSERT_TRUE(result) << result.error().to_string();
     EXPECT_TRUE(result->quiet);
     EXPECT_EQ(result->alike, 0U);
+}
+
+// Detection never leaves its mark on the port: the settings it found are put back.
+TEST(DetectVirtualBus, ThePortKeepsTheSettingsItHad) {
+    const LineSettings truth = setting(9600, "8N1");
+    SeedBus seed(truth);
+    ASSERT_TRUE(seed.error.empty()) << seed.error;
+    const std::string port = seed.bus->port_path(kSniffer);
+    const int fd = open(port.c_str(), O_RDONLY | O_NOCTTY | O_NONBLOCK);
+    ASSERT_GE(fd, 0);
+    termios before{};
+    ASSERT_EQ(tcgetattr(fd, &before), 0);
+    cfsetispeed(&before, B4800);
+    cfsetospeed(&before, B4800);
+    before.c_cflag |= CSTOPB;
+    before.c_lflag |= ICANON;
+    ASSERT_EQ(tcsetattr(fd, TCSANOW, &before), 0);
+    ASSERT_EQ(tcgetattr(fd, &before), 0);
+    DetectOptions options;
+    options.bauds = {9600, 19200};
+    auto result = detect_on(*seed.bus, options);
+    ASSERT_TRUE(result) << result.error().to_string();
+    EXPECT_EQ(name(result->chosen), "9600 8N1");
+    termios after{};
+    ASSERT_EQ(tcgetattr(fd, &after), 0);
+    close(fd);
+    EXPECT_EQ(cfgetispeed(&after), B4800);
+    EXPECT_EQ(after.c_cflag, before.c_cflag);
+    EXPECT_EQ(after.c_iflag, before.c_iflag);
+    EXPECT_EQ(after.c_lflag, before.c_lflag);
 }
 
 TEST(DetectVirtualBus, HeavyNoiseStillRanksTheRightSettingFirst) {
