@@ -45,14 +45,20 @@ void take_baud_auto(LiveArgs& args) {
     args.detect_line = true;
 }
 
+std::optional<int> detect_if_asked(const LiveArgs& args, Decoding& decoding,
+                                   const std::vector<std::string>& ports) {
+    if (!args.detect_line) return std::nullopt;
+    int code = 0;
+    const auto found = detect_for_sniffing(ports, decoding.options.format, code);
+    if (!found) return code;
+    // Stopped while detecting: the run ends as a stopped sniff does.
+    if (g_stop.load()) return 0;
+    decoding.options.baud = found->baud;
+    decoding.options.format = *found;
+    return std::nullopt;
+}
+
 int run_live(const LiveArgs& args, Decoding& decoding, TtyOptions tty) {
-    if (args.detect_line) {
-        int code = 0;
-        const auto found = detect_for_sniffing(tty.ports, decoding.options.format, code);
-        if (!found || g_stop.load()) return found ? 128 + stop_signal() : code;
-        decoding.options.baud = found->baud;
-        decoding.options.format = *found;
-    }
     tty.line = live_line(decoding);
     tty.stop = &g_stop;
     if (args.seconds > 0) tty.duration = static_cast<Nanos>(std::llround(args.seconds * 1e9));
@@ -135,6 +141,7 @@ int run_sniff(SniffArgs args) {
     TtyOptions tty;
     tty.ports = args.ports;
     install_stop_handlers();
+    if (auto code = detect_if_asked(args.live, *decoding, args.ports)) return *code;
     auto telemetry = attach_telemetry(args.live.telemetry, args.ports.front(), *decoding, exit_code);
     if (!telemetry) return exit_code;
     const int code = run_live(args.live, *decoding, tty);

@@ -4,7 +4,9 @@
 
 #include <CLI/CLI.hpp>
 #include <functional>
+#include <optional>
 #include <string>
+#include <vector>
 
 #include "input/tty.hpp"
 #include "output_options.hpp"
@@ -28,8 +30,13 @@ void take_baud_auto(LiveArgs& args);
 // -w and --seconds.
 void add_recording_options(CLI::App& cmd, LiveArgs& args);
 
-// With detect_line, first finds the line's settings by listening (the format only when
-// --format does not give it). Runs the pipeline on open ports until they go away, --seconds pass or a signal comes;
+// With detect_line (--baud auto), finds the line's settings by listening (the rate only
+// when --format gives the format) and puts them in `decoding`, saying why on stderr;
+// the exit status when the run ends there (nothing found, or stopped).
+std::optional<int> detect_if_asked(const LiveArgs& args, Decoding& decoding,
+                                   const std::vector<std::string>& ports);
+
+// Runs the pipeline on open ports until they go away, --seconds pass or a signal comes;
 // a short summary goes to stderr.
 int run_live(const LiveArgs& args, Decoding& decoding, TtyOptions tty);
 

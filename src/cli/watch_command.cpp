@@ -94,6 +94,10 @@ int watch_live(WatchArgs args) {
     auto decoding = prepare_decoding(args.live.output, exit_code);
     if (!decoding) return exit_code;
     install_stop_handlers();
+    // Before the dashboard takes the terminal: the verdict is for the user to read.
+    if (!args.demo) {
+        if (auto code = detect_if_asked(args.live, *decoding, args.inputs)) return *code;
+    }
     auto telemetry = watch_telemetry(args, args.demo ? "demo" : args.inputs.front(), *decoding,
                                      exit_code);
     if (!telemetry) return exit_code;

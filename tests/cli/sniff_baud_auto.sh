@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # `sniff PORT --baud auto` on a seed bus at 38400 8N1: the detection's verdict on stderr,
 # then the sniff at what it chose, every frame with a valid CRC, and `-w` records the
-# settings chosen. `detect PORT` gives the rate and the command line to use.
+# settings chosen; `watch --baud auto` likewise. `detect PORT` gives the rate and the
+# command line to use.
 # Usage: sniff_baud_auto.sh RTUSCOPE SEED_BUS   (from the source directory)
 set -uo pipefail
 rtuscope=$1
@@ -40,4 +41,11 @@ frames=$(grep -c ',request,\|,response,' "$work/sniff.csv")
 # The first record may be the end of a frame the sniffer joined in the middle of.
 bad=$(tail -n +3 "$work/sniff.csv" | grep -c ',bad,' || true)
 [ "$bad" -eq 0 ] || fail "$bad frames with a bad CRC at the settings chosen"
+# watch detects before its display starts: the tables show the line chosen.
+"$rtuscope" watch "$port" --baud auto --plain --seconds 2 >"$work/watch" 2>"$work/watch.err" ||
+    fail "watch: $(cat "$work/watch.err")"
+watched=$(sed -n 's/^rtuscope: note: Best: \(38400 8[NEO][12]\) (confidence [a-z]*): .*/\1/p' \
+    "$work/watch.err")
+[ -n "$watched" ] || fail "watch gave no verdict: $(cat "$work/watch.err")"
+grep -q "^bus: $watched, " "$work/watch" || fail "watch's tables: $(head -3 "$work/watch")"
 echo "ok"
