@@ -52,8 +52,9 @@ std::vector<Record> sniff(sim::VirtualBus& bus, const LineSettings& line, Nanos 
 }
 
 // The detector's verdict, then a sniff at it: its frames all have a valid CRC.
-// `frames`: how many a sniff of 3 s is sure to hear.
-void expect_detected(sim::VirtualBus& bus, const LineSettings& truth, std::size_t frames = 4) {
+// The sniff that follows lasts `sniff_for` and must hear at least `frames` good frames.
+void expect_detected(sim::VirtualBus& bus, const LineSettings& truth, std::size_t frames = 4,
+                     Nanos sniff_for = 3 * kNanosPerSecond) {
     DetectOptions options;
     options.bauds = {9600, 19200, 115200, 38400};
     auto result = detect_on(bus, options);
@@ -69,7 +70,7 @@ void expect_detected(sim::VirtualBus& bus, const LineSettings& truth, std::size_
     if (truth.format() == "8N1" || truth.format() == "8E1") {
         EXPECT_EQ(result->chosen.format(), truth.format()) << report;
     }
-    const std::vector<Record> records = sniff(bus, result->chosen, 3 * kNanosPerSecond);
+    const std::vector<Record> records = sniff(bus, result->chosen, sniff_for);
     std::size_t good = 0;
     for (const Record& r : records) {
         // A sniffer that opens the port mid-frame hears the rest of one; the frame on the
@@ -118,9 +119,9 @@ TEST(DetectVirtualBus, OneSlaveOnly) {
     ASSERT_TRUE(device) << device.error().to_string();
     auto master = sim::start_master((*bus)->port_path(0), truth, {}, 0, 20);
     ASSERT_TRUE(master);
-    // The master waits in vain for the three devices that are not there: a frame or two a
-    // second.
-    expect_detected(**bus, truth, 2);
+    // The master waits in vain for the three devices that are not there: a transaction
+    // every few seconds.
+    expect_detected(**bus, truth, 2, 8 * kNanosPerSecond);
     (*master)->stop();
 }
 
@@ -129,7 +130,7 @@ TEST(DetectVirtualBus, ASlowPoll) {
     const LineSettings truth = setting(9600, "8N1");
     SeedBus seed(truth, 500);
     ASSERT_TRUE(seed.error.empty()) << seed.error;
-    expect_detected(*seed.bus, truth);
+    expect_detected(*seed.bus, truth, 2, 5 * kNanosPerSecond);
 }
 
 TEST(DetectVirtualBus, AQuietLineIsReportedQuiet) {
