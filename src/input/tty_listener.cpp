@@ -6,7 +6,6 @@
 #include <termios.h>
 #include <unistd.h>
 
-#include <array>
 #include <cerrno>
 #include <cstring>
 #include <ctime>
@@ -114,7 +113,6 @@ Result<Nanos> TtyListener::listen(const LineSettings& line, Nanos most, const En
     Nanos next_ask = start + kAskEvery;
     std::vector<pollfd> fds;
     for (const Port& p : ports_) fds.push_back({p.fd, POLLIN, 0});
-    std::array<std::uint8_t, 4096> buffer{};
     for (;;) {
         const Nanos now = monotonic_now();
         const Nanos listened = now - start;
@@ -132,20 +130,13 @@ Result<Nanos> TtyListener::listen(const LineSettings& line, Nanos most, const En
         for (std::size_t i = 0; i < fds.size(); ++i) {
             if (fds[i].revents == 0) continue;
             Port& p = ports_[i];
-            const ssize_t got = read(p.fd, buffer.data(), buffer.size());
-            if (got < 0 && (errno == EAGAIN || errno == EINTR)) continue;
-            if (got <= 0) {
-                const int err = got < 0 ? errno : EIO;
-                return Error{fmt::format("the port went away ({}); was the adapter unplugged?",
-                                         std::strerror(err)),
-                             p.path};
-            }
             Chunk chunk;
+            if (Status s = read_marked(p.fd, p.path, fds[i].revents, p.parmrk, chunk); !s) {
+                return s.error();
+            }
             chunk.time = monotonic_now();
             if (chunk.time - start < kSettle) continue;
             chunk.channel = p.channel;
-            p.parmrk.feed(std::span(buffer.data(), static_cast<std::size_t>(got)), chunk.bytes,
-                          chunk.char_errors);
             if (!chunk.bytes.empty()) out.push_back(std::move(chunk));
         }
     }

@@ -7,6 +7,8 @@
 #include <vector>
 
 #include "framing/line_settings.hpp"
+#include "input/chunk.hpp"
+#include "input/tty.hpp"
 #include "util/result.hpp"
 
 namespace rtuscope {
@@ -23,5 +25,11 @@ enum class ErrorMarks : std::uint8_t { as_the_format_checks, parity_and_framing 
 // driver allows (what it refuses goes to `notices`); what was buffered is dropped.
 Status configure_port(int fd, const std::string& path, const LineSettings& line,
                       ErrorMarks marks, std::vector<std::string>& notices);
+
+// Appends what one read() of the port gives to `chunk`: its bytes, unescaped by `parmrk`,
+// and the offsets of those received with an error. Nothing when the read would block or
+// was interrupted; a port that hung up (`revents` from poll) is an error saying so.
+Status read_marked(int fd, const std::string& path, short revents, ParmrkDecoder& parmrk,
+                   Chunk& chunk);
 
 }  // namespace rtuscope

@@ -207,19 +207,8 @@ class TtySource final : public ChunkSource {
     }
 
     static Status read_port(Port& port, short revents, Chunk& chunk) {
-        std::array<std::uint8_t, 4096> buffer{};
-        const ssize_t n = read(port.fd, buffer.data(), buffer.size());
-        if (n < 0 && (errno == EAGAIN || errno == EINTR)) return ok_status();
-        if (n <= 0 || (revents & (POLLERR | POLLHUP | POLLNVAL)) != 0) {
-            const int err = n < 0 ? errno : EIO;
-            return Error{fmt::format("the port went away ({}); was the adapter unplugged?",
-                                     std::strerror(err)),
-                         port.path};
-        }
         chunk.channel = port.channel;
-        port.parmrk.feed(std::span(buffer.data(), static_cast<std::size_t>(n)), chunk.bytes,
-                         chunk.char_errors);
-        return ok_status();
+        return read_marked(port.fd, port.path, revents, port.parmrk, chunk);
     }
 
     TtyOptions options_;
@@ -299,6 +288,22 @@ Status configure_port(int fd, const std::string& path, const LineSettings& line,
                         path, std::strerror(errno)));
     }
     tcflush(fd, TCIFLUSH);  // what was buffered before we listened has no time
+    return ok_status();
+}
+
+Status read_marked(int fd, const std::string& path, short revents, ParmrkDecoder& parmrk,
+                   Chunk& chunk) {
+    std::array<std::uint8_t, 4096> buffer{};
+    const ssize_t n = read(fd, buffer.data(), buffer.size());
+    if (n < 0 && (errno == EAGAIN || errno == EINTR)) return ok_status();
+    if (n <= 0 || (revents & (POLLERR | POLLHUP | POLLNVAL)) != 0) {
+        const int err = n < 0 ? errno : EIO;
+        return Error{fmt::format("the port went away ({}); was the adapter unplugged?",
+                                 std::strerror(err)),
+                     path};
+    }
+    parmrk.feed(std::span(buffer.data(), static_cast<std::size_t>(n)), chunk.bytes,
+                chunk.char_errors);
     return ok_status();
 }
 
