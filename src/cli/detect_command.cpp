@@ -15,6 +15,7 @@
 #include "input/sources.hpp"
 #include "input/tty_listener.hpp"
 #include "sim/sim.hpp"
+#include "sniff_command.hpp"
 #include "stop_signals.hpp"
 #include "util/text.hpp"
 
@@ -80,20 +81,11 @@ int detect_ports(const std::vector<std::string>& ports, DetectOptions options,
 int detect_demo(const DetectArgs& args, const DetectOptions& options) {
     auto line = parse_line_settings(args.demo_line);
     if (!line) return print_error(line.error()), 2;
-    auto bus = sim::VirtualBus::create(6, {*line, true});
-    if (!bus) return print_error(bus.error()), 1;
-    auto devices = sim::start_seed_devices(**bus, *line);
-    if (!devices) return print_error(devices.error()), 1;
-    auto master = sim::start_master((*bus)->port_path(0), *line, {}, 0, 20);
-    if (!master) return print_error(master.error()), 1;
-    constexpr std::size_t kSniffer = 5;
-    const int code = detect_ports({(*bus)->port_path(kSniffer)}, options, args.max_seconds,
-                                  [&](const LineSettings& candidate) {
-                                      (*bus)->set_receiver_format(kSniffer, candidate.data_bits,
-                                                                  candidate.parity);
-                                  });
-    (*master)->stop();
-    return code;
+    return with_demo_bus(*line, [&](sim::VirtualBus& bus, const std::string& port) {
+        return detect_ports({port}, options, args.max_seconds, [&](const LineSettings& candidate) {
+            bus.set_receiver_format(kDemoSniffer, candidate.data_bits, candidate.parity);
+        });
+    });
 }
 
 // A capture's timing: bytes timed one by one give the character time; the bytes
@@ -246,15 +238,8 @@ std::optional<LineSettings> detect_for_sniffing(const std::vector<std::string>& 
         exit_code = 1;
         return std::nullopt;
     }
-    const std::string report = format_detect_result(*result);
-    // The verdict's lines (after the table), each as a note.
-    const std::size_t verdict = report.find("\n\n");
-    std::string_view why = verdict == std::string::npos ? std::string_view(report)
-                                                       : std::string_view(report).substr(verdict + 2);
-    while (!why.empty()) {
-        const std::size_t end = why.find('\n');
-        fmt::print(stderr, "rtuscope: note: {}\n", why.substr(0, end));
-        why = end == std::string_view::npos ? std::string_view() : why.substr(end + 1);
+    for (const std::string& line : detect_verdict(*result)) {
+        fmt::print(stderr, "rtuscope: note: {}\n", line);
     }
     return result->chosen;
 }

@@ -101,7 +101,8 @@ void add_demo_devices(OutputArgs& output) {
                               {"1=zb-uvi485", "2=sensor-analyser", "3=pdu485", "4=zyi-relay"});
 }
 
-int with_demo_bus(const LineSettings& line, const std::function<int(const std::string&)>& body) {
+int with_demo_bus(const LineSettings& line,
+                  const std::function<int(sim::VirtualBus&, const std::string& port)>& body) {
     auto bus = sim::VirtualBus::create(6, {line, true});
     if (!bus) return print_error(bus.error()), 1;
     auto devices = sim::start_seed_devices(**bus, line);
@@ -120,7 +121,7 @@ int with_demo_bus(const LineSettings& line, const std::function<int(const std::s
             g_stop.store(true);
         }
     });
-    const int code = body((*bus)->port_path(5));
+    const int code = body(**bus, (*bus)->port_path(kDemoSniffer));
     starter.join();
     return code;
 }
@@ -163,7 +164,7 @@ int run_demo(DemoArgs args) {
     install_stop_handlers();
     auto telemetry = attach_telemetry(args.live.telemetry, "demo", *decoding, exit_code);
     if (!telemetry) return exit_code;
-    const int code = with_demo_bus(live_line(*decoding), [&](const std::string& port) {
+    const int code = with_demo_bus(live_line(*decoding), [&](sim::VirtualBus&, const std::string& port) {
         TtyOptions tty;
         tty.ports = {port};
         return run_live(args.live, *decoding, tty);

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <CLI/CLI.hpp>
+#include <cstddef>
 #include <functional>
 #include <optional>
 #include <string>
@@ -11,6 +12,10 @@
 #include "input/tty.hpp"
 #include "output_options.hpp"
 #include "telemetry_options.hpp"
+
+namespace rtuscope::sim {
+class VirtualBus;
+}
 
 namespace rtuscope::cli {
 
@@ -43,7 +48,10 @@ int run_live(const LiveArgs& args, Decoding& decoding, TtyOptions tty);
 // The demo's devices (the four seed devices at 1-4) in front of the user's --device.
 void add_demo_devices(OutputArgs& output);
 // Runs `body` on the port of a virtual bus where the simulated seed devices answer a
-// polling master; returns what it returns.
-int with_demo_bus(const LineSettings& line, const std::function<int(const std::string&)>& body);
+// polling master (the bus too, for what a port cannot tell it); returns what it returns.
+int with_demo_bus(const LineSettings& line,
+                  const std::function<int(sim::VirtualBus&, const std::string& port)>& body);
+// The demo bus's port that `body` is given.
+inline constexpr std::size_t kDemoSniffer = 5;
 
 }  // namespace rtuscope::cli

@@ -109,7 +109,9 @@ int watch_live(WatchArgs args) {
         return run_live(args.live, *decoding, tty);
     };
     const int code = args.demo ? with_demo_bus(live_line(*decoding),
-                                               [&](const std::string& port) { return run({port}); })
+                                               [&](sim::VirtualBus&, const std::string& port) {
+                                                   return run({port});
+                                               })
                                : run(args.inputs);
     // A live run ends by being stopped: a signal is its normal end, as for sniff.
     return std::max(code, finish_telemetry(*telemetry));

@@ -93,7 +93,10 @@ struct DetectResult {
 // well, then the other formats at that rate; every format at every rate when none does.
 Result<DetectResult> detect_line(const Listen& listen, const DetectOptions& options);
 
-// The ranked settings as a table, the verdict and why, for the terminal.
+// The verdict and why, a line each (no line ends): the best setting, those that read the
+// line alike, a run cut short; or that the line is quiet or nothing reads it.
+std::vector<std::string> detect_verdict(const DetectResult& result);
+// The ranked settings as a table, then the verdict, for the terminal.
 std::string format_detect_result(const DetectResult& result);
 // "3 answers paired with their requests"
 std::string answers_paired(std::uint64_t paired);

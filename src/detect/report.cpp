@@ -1,6 +1,10 @@
 // What `detect` prints: the settings ranked, the verdict and the evidence behind it.
 #include <fmt/format.h>
 
+#include <iterator>
+#include <string>
+#include <vector>
+
 #include "detect/detect.hpp"
 #include "util/text.hpp"
 
@@ -38,12 +42,9 @@ std::string line_options(const LineSettings& line) {
     return fmt::format("--baud {} --format {}", line.baud, line.format());
 }
 
-std::string format_detect_result(const DetectResult& r) {
-    std::string out;
-    const auto line = [&](const std::string& text) {
-        out += text;
-        out += '\n';
-    };
+std::vector<std::string> detect_verdict(const DetectResult& r) {
+    std::vector<std::string> out;
+    const auto line = [&](std::string text) { out.push_back(std::move(text)); };
     if (r.quiet) {
         const SettingScore& s = r.ranked.front();
         line(fmt::format("No traffic in {} at {} {}: the line is quiet. Is the adapter on the "
@@ -51,15 +52,6 @@ std::string format_detect_result(const DetectResult& r) {
                          seconds(s.listened), s.line.baud, s.line.format()));
         return out;
     }
-    line(fmt::format("{:<11} {:>8} {:>7} {:>6} {:>6} {:>6} {:>6} {:>9} {:>6}", "setting", "heard",
-                     "bytes", "frames", "valid", "paired", "errors", "spacing", "score"));
-    for (const SettingScore& s : r.ranked) {
-        line(fmt::format("{:<11} {:>8} {:>7} {:>6} {:>5.0f}% {:>6} {:>6} {:>9} {:>6.1f}",
-                         fmt::format("{} {}", s.line.baud, s.line.format()), seconds(s.listened),
-                         s.bytes, s.frames, 100.0 * s.coverage(), s.paired, s.char_errors,
-                         spacing(s), s.score));
-    }
-    line("");
     if (r.alike == 0) {
         const SettingScore& s = r.ranked.front();
         line(fmt::format("No setting tried reads this line as Modbus RTU: the best, {} {}, puts "
@@ -101,6 +93,28 @@ std::string format_detect_result(const DetectResult& r) {
     if (r.cut_short) {
         line(fmt::format("Stopped after {} ({}) with {} settings tried.", seconds(r.listened),
                          r.interrupted ? "interrupted" : "--max-seconds", r.ranked.size()));
+    }
+    return out;
+}
+
+std::string format_detect_result(const DetectResult& r) {
+    std::string out;
+    if (!r.quiet) {
+        fmt::format_to(std::back_inserter(out), "{:<11} {:>8} {:>7} {:>6} {:>6} {:>6} {:>6} {:>9} {:>6}\n",
+                       "setting", "heard", "bytes", "frames", "valid", "paired", "errors",
+                       "spacing", "score");
+        for (const SettingScore& s : r.ranked) {
+            fmt::format_to(std::back_inserter(out),
+                           "{:<11} {:>8} {:>7} {:>6} {:>5.0f}% {:>6} {:>6} {:>9} {:>6.1f}\n",
+                           fmt::format("{} {}", s.line.baud, s.line.format()),
+                           seconds(s.listened), s.bytes, s.frames, 100.0 * s.coverage(),
+                           s.paired, s.char_errors, spacing(s), s.score);
+        }
+        out += '\n';
+    }
+    for (const std::string& line : detect_verdict(r)) {
+        out += line;
+        out += '\n';
     }
     return out;
 }
