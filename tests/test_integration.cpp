@@ -15,6 +15,7 @@
 
 #include "framing/crc.hpp"
 #include "input/capture_writer.hpp"
+#include "recording/recorder.hpp"
 #include "input/sources.hpp"
 #include "input/tty.hpp"
 #include "pipeline.hpp"

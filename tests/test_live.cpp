@@ -10,6 +10,7 @@
 #include <chrono>
 
 #include "input/capture_writer.hpp"
+#include "recording/recorder.hpp"
 #include "input/sources.hpp"
 #include "input/tty.hpp"
 #include "pipeline.hpp"

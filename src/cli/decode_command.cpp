@@ -6,7 +6,7 @@
 #include <string>
 
 #include "errors.hpp"
-#include "input/sources.hpp"
+#include "input/joined_source.hpp"
 #include "output_options.hpp"
 #include "telemetry_options.hpp"
 #include "stop_signals.hpp"
@@ -15,7 +15,7 @@ namespace rtuscope::cli {
 namespace {
 
 struct DecodeArgs {
-    std::string file;
+    std::vector<std::string> files;
     std::string input_format = "auto";
     std::vector<std::uint16_t> rtu_ports;
     OutputArgs output;
@@ -29,8 +29,11 @@ int run_decode(const DecodeArgs& args) {
         if (!parsed) return print_error(parsed.error()), 2;
         input_format = *parsed;
     }
-    auto source = open_source(args.file, input_format, PcapOptions{args.rtu_ports});
+    auto files = expand_inputs(args.files);
+    if (!files) return print_error(files.error()), 1;
+    auto source = open_joined(*files, input_format, PcapOptions{args.rtu_ports});
     if (!source) return print_error(source.error()), 1;
+    const std::string& name = files->size() == 1 ? files->front() : (*source)->info().name;
     // After the input's header is read: it may give the device map.
     int exit_code = 0;
     auto decoding = prepare_decoding(args.output, exit_code, &(*source)->info());
@@ -39,7 +42,7 @@ int run_decode(const DecodeArgs& args) {
         return print_error(bounds.error()), 2;
     }
 
-    auto telemetry = attach_telemetry(args.telemetry, args.file, *decoding, exit_code);
+    auto telemetry = attach_telemetry(args.telemetry, name, *decoding, exit_code);
     if (!telemetry) return exit_code;
 
     // Ctrl-C or SIGTERM stop at a record boundary: every output flushed and closed (the
@@ -52,7 +55,7 @@ int run_decode(const DecodeArgs& args) {
     // place for them.
     if (args.output.csv || args.output.values_csv || args.output.jsonl) {
         for (const std::string& remark : totals.remarks) {
-            fmt::print(stderr, "rtuscope: note: {}: {}\n", args.file, remark);
+            fmt::print(stderr, "rtuscope: note: {}: {}\n", name, remark);
         }
     }
     const int telemetry_code = finish_telemetry(*telemetry);
@@ -71,7 +74,10 @@ void add_stats_command(CLI::App& app, int& exit_code) {
         app.add_subcommand("stats",
                            "Bus statistics of a capture: per slave and function code, turnaround "
                            "percentiles, utilisation, poll cycles");
-    cmd->add_option("FILE", args->file, "Input file ('-' for standard input)")->required();
+    cmd->add_option("FILE", args->files,
+                    "Input files, read as one stream in the order given ('-' for standard "
+                    "input; a quoted pattern such as 'bus-*.rtucap' in name order)")
+        ->required();
     cmd->add_option("--input-format", args->input_format,
                     "capture, raw, hex or pcap; default: detected from the content")
         ->check(CLI::IsMember({"auto", "capture", "raw", "hex", "pcap"}));
@@ -85,7 +91,10 @@ void add_decode_command(CLI::App& app, int& exit_code) {
     CLI::App* cmd = app.add_subcommand("decode",
                                        "Decode a saved capture, raw dump, hex log or pcap into "
                                        "annotated text, CSV or JSON Lines");
-    cmd->add_option("FILE", args->file, "Input file ('-' for standard input)")->required();
+    cmd->add_option("FILE", args->files,
+                    "Input files, read as one stream in the order given ('-' for standard "
+                    "input; a quoted pattern such as 'bus-*.rtucap' in name order)")
+        ->required();
     cmd->add_option("--input-format", args->input_format,
                     "capture (native text format), raw (bytes, no timing), hex (bytes in hex "
                     "a line at a time) or pcap (pcap/pcapng); default: detected from the "

@@ -14,7 +14,9 @@
 #include "detect_command.hpp"
 #include "errors.hpp"
 #include "input/capture_writer.hpp"
+#include "recording/recorder.hpp"
 #include "input/tty.hpp"
+#include "util/output_file.hpp"
 #include "output_options.hpp"
 #include "sim/sim.hpp"
 #include "stop_signals.hpp"
@@ -33,10 +35,55 @@ void add_live_options(CLI::App& cmd, LiveArgs& args) {
 
 void add_recording_options(CLI::App& cmd, LiveArgs& args) {
     cmd.add_option("-w,--write", args.write_file,
-                   "Also record the raw chunks to FILE in the native capture format")
+                   "Also record the raw chunks to FILE in the native capture format; FILE.zst "
+                   "or FILE.gz compressed")
         ->type_name("FILE");
+    cmd.add_option("--rotate-size", args.rotate_megabytes,
+                   "Start a new -w file before one grows past this many MB (10^6 bytes); "
+                   "names get their start time")
+        ->type_name("MB")
+        ->check(CLI::PositiveNumber);
+    cmd.add_option("--rotate-seconds", args.rotate_seconds,
+                   "Start a new -w file every S seconds, on multiples of S since midnight UTC")
+        ->type_name("S")
+        ->check(CLI::PositiveNumber);
+    cmd.add_option("--rotate-files", args.rotate_files,
+                   "Keep only the newest N -w files, removing older ones (a ring)")
+        ->type_name("N")
+        ->check(CLI::PositiveNumber);
     cmd.add_option("--seconds", args.seconds, "Stop after this many seconds (default: Ctrl-C)")
         ->check(CLI::PositiveNumber);
+}
+
+namespace {
+
+RecordingOptions recording_options(const LiveArgs& args) {
+    RecordingOptions options;
+    options.path = args.write_file;
+    options.file.compression = compression_for(args.write_file);
+    options.rotation.max_bytes = static_cast<std::uint64_t>(std::llround(args.rotate_megabytes * 1e6));
+    options.rotation.period = static_cast<Nanos>(std::llround(args.rotate_seconds * 1e9));
+    options.rotation.keep_files = args.rotate_files;
+    options.rotation.rotate_now = &g_rotate;
+    return options;
+}
+
+// "rtuscope: recorded 12 files, the last bus-20261128T030000Z.rtucap" when the names are
+// not the one -w gave.
+void print_recording_summary(const RecordingCounts& counts, const LiveArgs& args) {
+    if (counts.files == 0 || counts.last_file == args.write_file) return;
+    fmt::print(stderr, "rtuscope: recorded {} {}, the last {}\n", counts.files,
+               plural(counts.files, "file", "files"), counts.last_file);
+}
+
+}  // namespace
+
+Status check_recording_options(const LiveArgs& args) {
+    if (args.write_file.empty() &&
+        (args.rotate_megabytes > 0 || args.rotate_seconds > 0 || args.rotate_files > 0)) {
+        return Error{"--rotate-size, --rotate-seconds and --rotate-files need -w FILE"};
+    }
+    return ok_status();
 }
 
 void take_baud_auto(LiveArgs& args) {
@@ -67,11 +114,12 @@ int run_live(const LiveArgs& args, Decoding& decoding, TtyOptions tty) {
     if (!source) return print_error(source.error()), 1;
     for (const std::string& notice : notices) fmt::print(stderr, "rtuscope: note: {}\n", notice);
     std::unique_ptr<ChunkSource> input = std::move(*source);
+    std::shared_ptr<Recorder> recorder;
     if (!args.write_file.empty()) {
-        const SourceInfo header = live_capture_header(decoding, input->info());
-        auto recording = record_capture(std::move(input), args.write_file, header);
-        if (!recording) return print_error(recording.error()), 1;
-        input = std::move(*recording);
+        recorder = std::make_shared<Recorder>(
+            recording_options(args), capture_header(live_capture_header(decoding, input->info())));
+        if (Status s = recorder->open(clock_ns(CLOCK_REALTIME)); !s) return print_error(s.error()), 1;
+        input = record_chunks(std::move(input), recorder);
     }
     decoding.options.live = true;
     // The port's settings are the line's: a capture header cannot say otherwise here.
@@ -91,6 +139,7 @@ int run_live(const LiveArgs& args, Decoding& decoding, TtyOptions tty) {
                n(totals.crc_bad + totals.invalid + totals.noise_runs, "error", "errors"),
                totals.crc_bad, totals.invalid, n(totals.noise_bytes, "noise byte", "noise bytes"),
                n(totals.unanswered, "request", "requests"));
+    if (recorder) print_recording_summary(recorder->counts(), args);
     if (!status) return print_error(status.error()), 1;
     if (Status pcap = pcap_status(decoding); !pcap) return print_error(pcap.error()), 1;
     return 0;
@@ -136,6 +185,7 @@ struct SniffArgs {
 int run_sniff(SniffArgs args) {
     args.live.output.closing_stats = true;
     take_baud_auto(args.live);
+    if (Status s = check_recording_options(args.live); !s) return print_error(s.error()), 2;
     int exit_code = 0;
     auto decoding = prepare_decoding(args.live.output, exit_code);
     if (!decoding) return exit_code;
@@ -158,6 +208,7 @@ struct DemoArgs {
 int run_demo(DemoArgs args) {
     args.live.output.closing_stats = true;
     add_demo_devices(args.live.output);
+    if (Status s = check_recording_options(args.live); !s) return print_error(s.error()), 2;
     int exit_code = 0;
     auto decoding = prepare_decoding(args.live.output, exit_code);
     if (!decoding) return exit_code;

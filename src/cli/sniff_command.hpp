@@ -26,14 +26,19 @@ struct LiveArgs {
     OutputArgs output;
     TelemetryArgs telemetry;
     std::string write_file;
+    double rotate_megabytes = 0;  // --rotate-size
+    double rotate_seconds = 0;    // --rotate-seconds
+    std::size_t rotate_files = 0;  // --rotate-files
     double seconds = 0;  // 0: until stopped
     bool detect_line = false;  // --baud auto: find the settings before sniffing
 };
 // Takes `--baud auto` out of the output options (which parse a number) into
 // `detect_line`.
 void take_baud_auto(LiveArgs& args);
-// -w and --seconds.
+// -w and its rotation, and --seconds.
 void add_recording_options(CLI::App& cmd, LiveArgs& args);
+// An Error for recording options that do not go together (the run exits 2).
+Status check_recording_options(const LiveArgs& args);
 
 // With detect_line (--baud auto), finds the line's settings by listening (the rate only
 // when --format gives the format) and puts them in `decoding`, saying why on stderr;

@@ -5,6 +5,7 @@
 namespace rtuscope::cli {
 
 std::atomic<bool> g_stop{false};
+std::atomic<bool> g_rotate{false};
 
 namespace {
 
@@ -16,6 +17,10 @@ extern "C" void on_stop_signal(int signal) {
     std::signal(signal, SIG_DFL);  // the second one is not asked twice
 }
 
+extern "C" void on_rotate_signal(int /*signal*/) {
+    g_rotate.store(true);
+}
+
 }  // namespace
 
 void install_stop_handlers() {
@@ -25,6 +30,14 @@ void install_stop_handlers() {
     action.sa_flags = 0;
     sigaction(SIGINT, &action, nullptr);
     sigaction(SIGTERM, &action, nullptr);
+    // A terminal closed under a run (an ssh session dropped) ends it as SIGTERM does,
+    // with the outputs closed, rather than cutting them.
+    sigaction(SIGHUP, &action, nullptr);
+    struct sigaction rotate {};
+    rotate.sa_handler = on_rotate_signal;
+    sigemptyset(&rotate.sa_mask);
+    rotate.sa_flags = SA_RESTART;
+    sigaction(SIGUSR1, &rotate, nullptr);
 }
 
 int stop_signal() {

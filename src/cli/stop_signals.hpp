@@ -1,4 +1,4 @@
-// Ctrl-C (SIGINT) and SIGTERM stop a run cleanly: the pipeline stops at a record boundary,
+// Ctrl-C (SIGINT), SIGTERM and SIGHUP stop a run cleanly: the pipeline stops at a record boundary,
 // every output is flushed and closed, and the summary is printed. A second signal of the
 // same kind ends the process at once, as it would without rtuscope's handler.
 #pragma once
@@ -7,8 +7,10 @@
 
 namespace rtuscope::cli {
 
-// Set by the first SIGINT or SIGTERM.
+// Set by the first SIGINT, SIGTERM or SIGHUP.
 extern std::atomic<bool> g_stop;
+// Set by SIGUSR1: a recording starts its next file (tcpdump users rotate logs so).
+extern std::atomic<bool> g_rotate;
 
 // Installs the handlers. Blocking reads are interrupted (no SA_RESTART), so that a run
 // waiting on an idle pipe or port stops too.

@@ -90,6 +90,7 @@ int watch_file(const WatchArgs& args, double speed) {
 int watch_live(WatchArgs args) {
     if (args.demo) add_demo_devices(args.live.output);
     if (!args.demo) take_baud_auto(args.live);
+    if (Status s = check_recording_options(args.live); !s) return print_error(s.error()), 2;
     int exit_code = 0;
     auto decoding = prepare_decoding(args.live.output, exit_code);
     if (!decoding) return exit_code;

@@ -344,7 +344,9 @@ class CaptureReader final : public ChunkSource {
         std::size_t e = token_end(line, i);
         const std::string_view word = line.substr(i, e - i);
         if (in_header_ && word != "serial") return header_comment(line, word, e);
-        if (word == "stopped") {
+        // `# continued in NEXT`: a rotated recording's file ends as a stopped one does,
+        // by the recorder, not by the bus.
+        if (word == "stopped" || word == "continued") {
             stopped_here_ = true;
             return true;
         }

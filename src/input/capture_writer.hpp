@@ -1,5 +1,5 @@
-// sniff -w: the raw chunks of a live line recorded in the native capture format (v1) as
-// they pass, so that decoding the file later gives what the live run showed.
+// The native capture format (v1, docs/formats.md) written: its header and its data lines,
+// for sniff -w (src/recording) and for the tools that convert to it.
 #pragma once
 
 #include <memory>
@@ -11,16 +11,6 @@
 #include "util/result.hpp"
 
 namespace rtuscope {
-
-// Wraps `source`: every chunk it delivers is appended to `path` before it is handed on.
-// Each chunk is one write() of one whole line, so the file is valid up to the last chunk
-// received even when the process is killed; it is not fsync'ed (a power cut may lose
-// the last seconds). A write error ends the run with that error.
-// `header` says what goes into the file's header: the line settings, the program, the
-// device map and the profiles to embed, as SourceInfo holds them once a capture is read.
-Result<std::unique_ptr<ChunkSource>> record_capture(std::unique_ptr<ChunkSource> source,
-                                                    const std::string& path,
-                                                    const SourceInfo& header);
 
 // The header of the capture format (docs/formats.md): "# rtuscope capture v1", then what
 // `header` knows: "# serial 9600 8N1", "# written by rtuscope 0.1.0", "# device 3 pdu485"

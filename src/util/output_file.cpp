@@ -21,7 +21,7 @@ Status write_all(int fd, std::string_view bytes, const std::string& path) {
         const ssize_t n = ::write(fd, bytes.data() + done, bytes.size() - done);
         if (n < 0) {
             if (errno == EINTR) continue;
-            return Error{fmt::format("cannot write: {}", std::strerror(errno)), path};
+            return Error{fmt::format("cannot write the file: {}", std::strerror(errno)), path};
         }
         done += static_cast<std::size_t>(n);
     }
@@ -48,7 +48,7 @@ class PlainFile final : public OutputFile {
         const int fd = fd_;
         fd_ = -1;
         if (::close(fd) != 0) {
-            return Error{fmt::format("cannot write: {}", std::strerror(errno)), path()};
+            return Error{fmt::format("cannot write the file: {}", std::strerror(errno)), path()};
         }
         return ok_status();
     }
@@ -74,7 +74,7 @@ Result<std::unique_ptr<OutputFile>> create_output_file(const std::string& path,
         return Error{"compressed output is not available in this build", path};
     }
     const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-    if (fd < 0) return Error{fmt::format("cannot create: {}", std::strerror(errno)), path};
+    if (fd < 0) return Error{fmt::format("cannot create the file: {}", std::strerror(errno)), path};
     return std::unique_ptr<OutputFile>(new PlainFile(path, fd));
 }
 
