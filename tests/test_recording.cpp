@@ -183,7 +183,9 @@ TEST(Rotation, FilesBySizeStayUnderItAndDecodeTogetherAsTheUnrotatedRecording) {
     for (const std::string& file : files) {
         EXPECT_LE(std::filesystem::file_size(file), 20'000U) << file;
         // Full, but for the last.
-        if (file != files.back()) EXPECT_GT(std::filesystem::file_size(file), 19'800U) << file;
+        if (file != files.back()) {
+            EXPECT_GT(std::filesystem::file_size(file), 19'800U) << file;
+        }
     }
     EXPECT_EQ(decoded_files(files), decoded_files({whole.path}));
 }
