@@ -269,6 +269,144 @@ TEST(Rotation, TheSignalStartsTheNextFileAtOnce) {
     EXPECT_EQ(decoded_files(files_in(dir)), decoded(*std::make_unique<ChunkList>(line.chunks, line.info)));
 }
 
+// The data lines of capture files, comments left out.
+std::vector<std::string> data_lines(const std::vector<std::string>& files) {
+    std::vector<std::string> lines;
+    for (const std::string& file : files) {
+        std::istringstream in(read_file(file));
+        for (std::string line; std::getline(in, line);) {
+            if (!line.empty() && line[0] != '#') lines.push_back(line);
+        }
+    }
+    return lines;
+}
+
+// Tells the recorder of every record `is_event` picks, as the trigger sink does.
+class EventSink final : public RecordSink {
+  public:
+    EventSink(Recorder& recorder, std::function<bool(const Record&)> is_event)
+        : recorder_(recorder), is_event_(std::move(is_event)) {}
+    void begin(const SessionInfo&) override {}
+    void end(const Totals&, const std::vector<std::string>&) override {}
+    void record(const Record& r) override {
+        if (!is_event_(r)) return;
+        recorder_.event(r.frame.start, r.frame.end, fmt::format("record {}", r.number));
+        events.push_back(r);
+    }
+    std::vector<Record> events;
+
+  private:
+    Recorder& recorder_;
+    std::function<bool(const Record&)> is_event_;
+};
+
+struct WindowCase {
+    const char* name;
+    std::uint64_t every;  // every n-th record is an event
+    Nanos pre;
+    Nanos post;
+};
+
+class TriggerWindowsTest : public ::testing::TestWithParam<WindowCase> {};
+
+TEST_P(TriggerWindowsTest, HoldExactlyTheEventsWithTheirSecondsBeforeAndAfter) {
+    const WindowCase& c = GetParam();
+    const Line line = polled_line();
+    const TempDir dir;
+    RecordingOptions options;
+    options.path = dir.file("bus.rtucap");
+    options.windows = TriggerWindows{c.pre, std::size_t{64} << 20, c.post, 2 * kNanosPerSecond};
+    std::vector<Record> events;
+    const auto recorder = record(line, options, [&](Recorder& r) {
+        return std::make_unique<EventSink>(r, [&](const Record& record) {
+            if (record.number % c.every != 0) return false;
+            events.push_back(record);
+            return true;
+        });
+    });
+    ASSERT_GE(events.size(), 3U);
+
+    // Exactly the chunks within some event's window, and the first after it, each once.
+    std::vector<bool> inside(line.chunks.size(), false);
+    for (const Record& e : events) {
+        for (std::size_t i = 0; i < line.chunks.size(); ++i) {
+            const Nanos t = line.chunks[i].time;
+            if (t < e.frame.start - c.pre) continue;
+            inside[i] = true;
+            if (t > e.frame.end + c.post) break;
+        }
+    }
+    std::vector<std::string> expected;
+    for (std::size_t i = 0; i < line.chunks.size(); ++i) {
+        if (!inside[i]) continue;
+        const std::string text = capture_line(line.chunks[i]);
+        expected.push_back(text.substr(0, text.size() - 1));
+    }
+    std::size_t windows = 0;
+    const std::vector<std::string> files = files_in(dir);
+    EXPECT_EQ(data_lines(files), expected);
+    // One window per run of overlapping windows.
+    Nanos end = kNoTime;
+    for (const Record& e : events) {
+        if (!has_time(end) || e.frame.start - c.pre > end) ++windows;
+        end = has_time(end) ? std::max(end, e.frame.end + c.post) : e.frame.end + c.post;
+    }
+    EXPECT_EQ(files.size(), windows);
+    EXPECT_EQ(recorder->counts().windows, windows);
+    EXPECT_EQ(recorder->counts().events, events.size());
+    // Each window decodes alone, its events in it.
+    std::size_t found = 0;
+    for (const std::string& file : files) {
+        auto source = open_joined({file}, InputFormat::automatic, {});
+        ASSERT_TRUE(source);
+        const std::vector<std::string> records = decoded(**source);
+        for (const Record& e : events) {
+            const std::string start = std::to_string(e.frame.start) + " ";
+            found += static_cast<std::size_t>(std::count_if(records.begin(), records.end(), [&](const std::string& r) {
+                return r.starts_with(start);
+            }));
+        }
+        EXPECT_NE(read_file(file).find("# event: record "), std::string::npos);
+    }
+    EXPECT_EQ(found, events.size());
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Recording, TriggerWindowsTest,
+    ::testing::Values(WindowCase{"apart", 1000, 2 * kNanosPerSecond, kNanosPerSecond},
+                      WindowCase{"overlapping", 40, 2 * kNanosPerSecond, kNanosPerSecond},
+                      WindowCase{"no_seconds_around", 700, 0, 0}),
+    [](const auto& p) { return std::string(p.param.name); });
+
+TEST(TriggerWindows, WithoutAnEventNothingIsWritten) {
+    const Line line = polled_line(1000);
+    const TempDir dir;
+    RecordingOptions options;
+    options.path = dir.file("bus.rtucap");
+    options.windows = TriggerWindows{};
+    const auto recorder = record(line, options);
+    EXPECT_TRUE(files_in(dir).empty());
+    EXPECT_EQ(recorder->counts().windows, 0U);
+}
+
+TEST(TriggerWindows, HoldNoMoreThanTheBytesAllowed) {
+    const Line line = polled_line();
+    const TempDir dir;
+    RecordingOptions options;
+    options.path = dir.file("bus.rtucap");
+    // 60 s before the event asked, but only 2 KB of capture text held.
+    options.windows = TriggerWindows{60 * kNanosPerSecond, 2048, 0, 2 * kNanosPerSecond};
+    record(line, options, [&](Recorder& r) {
+        return std::make_unique<EventSink>(r, [](const Record& record) { return record.number == 3000; });
+    });
+    const std::vector<std::string> files = files_in(dir);
+    ASSERT_EQ(files.size(), 1U);
+    std::size_t held = 0;
+    for (const std::string& data : data_lines(files)) held += data.size() + 1;
+    EXPECT_LE(held, 2048U + 200);  // the held bytes, then the event's own chunks
+    EXPECT_GT(held, 1024U);
+}
+
 TEST(JoinedInput, RefusesFilesOutOfOrderOrOfAnotherLine) {
     const Line line = polled_line(1000);
     const TempDir dir;

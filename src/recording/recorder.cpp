@@ -66,8 +66,8 @@ Status Recorder::chunk(const Chunk& chunk) {
 
 Status Recorder::held_chunk(const Chunk& chunk) {
     const TriggerWindows& w = *options_.windows;
-    if (in_window_ && (!has_time(chunk.time) || chunk.time <= window_end_)) {
-        return files_.write(capture_line(chunk), chunk.time);
+    if (in_window_ && (!has_time(chunk.time) || chunk.time <= window_end_ || tail_pending_)) {
+        return write_in_window(capture_line(chunk), chunk.time);
     }
     if (in_window_ && chunk.time > window_end_ + w.decision_delay) {
         if (Status s = end_window(); !s) return s;
@@ -80,6 +80,13 @@ Status Recorder::held_chunk(const Chunk& chunk) {
     held_bytes_ += held.line.size();
     trim_held(now_);
     return ok_status();
+}
+
+Status Recorder::write_in_window(std::string_view line, Nanos time) {
+    // The first chunk that ends past the window's end holds its last frame's end.
+    if (has_time(time) && time > window_end_) tail_pending_ = false;
+    if (has_time(time)) last_written_ = time;
+    return files_.write(line, time);
 }
 
 void Recorder::trim_held(Nanos now) {
@@ -120,16 +127,22 @@ void Recorder::event(Nanos start, Nanos end, std::string_view what) {
         const Nanos first = held_.empty() ? (has_time(from) ? from : now_) : held_.front().time;
         if (fail(files_.start(first))) return;
         in_window_ = true;
+        window_end_ = kNoTime;
+        last_written_ = kNoTime;
         ++windows_;
     }
-    for (const Held& held : held_) {
-        if (fail(files_.write(held.line, held.time))) return;
-    }
-    held_.clear();
-    held_bytes_ = 0;
     const Nanos last = has_time(end) ? end : (has_time(start) ? start : now_);
     if (has_time(last)) {
         window_end_ = has_time(window_end_) ? std::max(window_end_, last + w.post) : last + w.post;
+    }
+    tail_pending_ = !has_time(last_written_) || last_written_ <= window_end_;
+    // The held chunks up to the window's end and the one past it; the later ones stay
+    // held, as the chunks that come after them would be.
+    while (!held_.empty() && (tail_pending_ || !has_time(held_.front().time) ||
+                              held_.front().time <= window_end_)) {
+        if (fail(write_in_window(held_.front().line, held_.front().time))) return;
+        held_bytes_ -= held_.front().line.size();
+        held_.pop_front();
     }
     fail(files_.comment(fmt::format("# event: {}\n", what)));
 }

@@ -5,7 +5,9 @@
 // Triggered recording keeps the line's recent chunks in memory (the `pre` seconds before
 // now, at most `pre_bytes` of capture text) and writes nothing until an event: a record
 // a trigger matched. Then a window file starts with the held chunks from `pre` before the
-// event's frame, takes every chunk until `post` after the last event's frame, and ends.
+// event's frame, takes every chunk until `post` after the last event's frame and the
+// one chunk after (which holds the frame's end when an adapter batched it with later
+// bytes), and ends. Each chunk is written once: overlapping windows are one.
 // An event comes to the recorder only once the record is decided (an unanswered request
 // after the answer timeout), so the chunks are held `decision_delay` longer than `pre`,
 // and a window stays open that much past its end in case a late event extends it.
@@ -76,6 +78,7 @@ class Recorder {
         std::string line;
     };
     Status held_chunk(const Chunk& chunk);
+    Status write_in_window(std::string_view line, Nanos time);
     void trim_held(Nanos now);
     Status end_window();
 
@@ -84,7 +87,11 @@ class Recorder {
     std::deque<Held> held_;
     std::size_t held_bytes_ = 0;
     bool in_window_ = false;
-    Nanos window_end_ = kNoTime;
+    Nanos window_end_ = kNoTime;  // `post` after the last event's frame
+    // The chunk that ends past window_end_ is still to come: it holds the end of the
+    // event's frame when an adapter delivered it with later bytes.
+    bool tail_pending_ = false;
+    Nanos last_written_ = kNoTime;
     Nanos now_ = kNoTime;
     std::uint64_t events_ = 0;
     std::uint64_t windows_ = 0;
