@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <cstdlib>
+#include <fstream>
 #include <sstream>
 #include <thread>
 #include <chrono>
@@ -296,6 +297,68 @@ TEST(TtySource, HangUpEndsWithAClearError) {
     ASSERT_FALSE(more.ok());
     EXPECT_NE(more.error().message.find("was the adapter unplugged?"), std::string::npos)
         << more.error().message;
+}
+
+TEST(TtySource, WithReopenAPortThatComesBackIsReadAgainAfterAGap) {
+    // The port is a name (as /dev/serial/by-id names are links) that goes away with its
+    // adapter and comes back pointing at the new device.
+    const test::TempDir dir;
+    const std::string port = dir.file("ttyUSB0");
+    auto first = std::make_unique<Pty>();
+    ASSERT_EQ(symlink(first->path.c_str(), port.c_str()), 0);
+    std::atomic<bool> stop{false};
+    std::vector<std::string> notices;
+    TtyOptions o;
+    o.ports = {port};
+    o.reopen = true;
+    o.reopen_poll = 20 * kMs;
+    o.stop = &stop;
+    o.on_notice = [&](const std::string& notice) { notices.push_back(notice); };
+    auto source = open_tty_source(o);
+    ASSERT_TRUE(source) << source.error().to_string();
+    const test::TempDir out;
+    const std::string capture = out.file("gap.rtucap");
+    auto recording = record_capture(std::move(*source), capture, SourceInfo{});
+    ASSERT_TRUE(recording);
+
+    first->write_bytes({0x01, 0x02});
+    EXPECT_EQ(read_bytes(**recording, 2, nullptr), (Bytes{0x01, 0x02}));
+    first.reset();  // unplugged
+    ASSERT_EQ(unlink(port.c_str()), 0);
+    Pty second;  // plugged in again
+    std::thread replug([&] {
+        std::this_thread::sleep_for(std::chrono::milliseconds(300));
+        ASSERT_EQ(symlink(second.path.c_str(), port.c_str()), 0);
+    });
+    Chunk chunk;
+    Nanos gap = kNoTime;
+    for (int i = 0; i < 1000 && !has_time(gap); ++i) {
+        ASSERT_TRUE((*recording)->next(chunk));
+        if (has_time(chunk.gap_since)) gap = chunk.time - chunk.gap_since;
+    }
+    replug.join();
+    ASSERT_TRUE(has_time(gap));
+    EXPECT_GE(gap, 250 * kMs);
+    second.write_bytes({0x03, 0x04});
+    EXPECT_EQ(read_bytes(**recording, 2, nullptr), (Bytes{0x03, 0x04}));
+    stop.store(true);
+    ASSERT_FALSE(*(*recording)->next(chunk));  // the capture ends with its `# stopped` line
+
+    ASSERT_EQ(notices.size(), 2U);
+    EXPECT_NE(notices[0].find("waiting for it to come back"), std::string::npos) << notices[0];
+    EXPECT_NE(notices[1].find("was gone from"), std::string::npos) << notices[1];
+    ASSERT_EQ((*recording)->remarks().size(), 1U);
+    // The capture says so, and so does its decode.
+    std::ifstream in(capture);
+    const std::string text{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+    EXPECT_NE(text.find("# gap "), std::string::npos) << text;
+    auto read_back = open_source(capture, InputFormat::capture);
+    ASSERT_TRUE(read_back);
+    Chunk c;
+    while (*(*read_back)->next(c)) {
+    }
+    ASSERT_EQ((*read_back)->remarks().size(), 1U);
+    EXPECT_NE((*read_back)->remarks()[0].find("the port was gone from"), std::string::npos);
 }
 
 TEST(TtySource, OpenErrorsNameTheFix) {

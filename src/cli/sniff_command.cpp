@@ -53,6 +53,9 @@ void add_recording_options(CLI::App& cmd, LiveArgs& args) {
         ->check(CLI::PositiveNumber);
     cmd.add_option("--seconds", args.seconds, "Stop after this many seconds (default: Ctrl-C)")
         ->check(CLI::PositiveNumber);
+    cmd.add_flag("--reopen", args.reopen,
+                 "When the port goes away (an adapter unplugged), wait for it and open it again "
+                 "with the same settings, noting the gap, rather than ending with status 1");
 }
 
 namespace {
@@ -108,6 +111,10 @@ std::optional<int> detect_if_asked(const LiveArgs& args, Decoding& decoding,
 int run_live(const LiveArgs& args, Decoding& decoding, TtyOptions tty) {
     tty.line = live_line(decoding);
     tty.stop = &g_stop;
+    tty.reopen = args.reopen;
+    tty.on_notice = [](const std::string& notice) {
+        fmt::print(stderr, "rtuscope: note: {}\n", notice);
+    };
     if (args.seconds > 0) tty.duration = static_cast<Nanos>(std::llround(args.seconds * 1e9));
     std::vector<std::string> notices;
     auto source = open_tty_source(tty, &notices);

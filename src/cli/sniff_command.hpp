@@ -30,6 +30,7 @@ struct LiveArgs {
     double rotate_seconds = 0;    // --rotate-seconds
     std::size_t rotate_files = 0;  // --rotate-files
     double seconds = 0;  // 0: until stopped
+    bool reopen = false;  // --reopen: wait for a port that went away
     bool detect_line = false;  // --baud auto: find the settings before sniffing
 };
 // Takes `--baud auto` out of the output options (which parse a number) into

@@ -276,6 +276,7 @@ class CaptureReader final : public ChunkSource {
     }
 
     [[nodiscard]] bool ended_by_stop() const override { return at_end_ && stopped_here_; }
+    [[nodiscard]] std::vector<std::string> remarks() const override { return gaps_; }
 
   private:
     // The first three words after the '#' of a comment line; false if it is no comment.
@@ -350,6 +351,10 @@ class CaptureReader final : public ChunkSource {
             stopped_here_ = true;
             return true;
         }
+        if (word == "gap") {
+            note_gap(line, e);
+            return true;
+        }
         if (word != "serial") return true;
 
         const auto missing = [&](std::size_t at) {
@@ -380,6 +385,22 @@ class CaptureReader final : public ChunkSource {
         settings->baud = *baud;
         info_.line = *settings;
         return true;
+    }
+
+    // `# gap FROM TO (...)`, the recorder's note that the port was gone: a remark. A gap
+    // line it did not write is a comment like any other.
+    void note_gap(std::string_view line, std::size_t e) {
+        Nanos from = 0;
+        Nanos to = 0;
+        std::size_t length = 0;
+        const std::size_t from_at = skip_space(line, e);
+        if (parse_seconds(line.substr(from_at), from, length) != TimeParse::ok) return;
+        const std::size_t to_at = skip_space(line, from_at + length);
+        if (parse_seconds(line.substr(to_at), to, length) != TimeParse::ok) return;
+        gaps_.push_back(fmt::format(
+            "line {}: the port was gone from {} to {} ({:.1f} s) and was opened again: "
+            "nothing was heard then",
+            in_->line_number(), utc_text(from), utc_text(to), static_cast<double>(to - from) / 1e9));
     }
 
     // `# written by rtuscope 0.1.0`, `# device 3 pdu485`, `# profile NAME` ... `# end
@@ -536,6 +557,7 @@ class CaptureReader final : public ChunkSource {
     bool at_end_ = false;
     bool in_header_ = true;             // before the first data line
     bool stopped_here_ = false;         // the last line was `# stopped`
+    std::vector<std::string> gaps_;     // the `# gap` lines, as remarks
     std::string* embedding_ = nullptr;  // the profile text `#|` lines go to, in the header
     std::optional<Error> failed_;       // errors stick: the reader cannot tell where to go on
 };

@@ -8,16 +8,27 @@
 
 namespace rtuscope {
 
+namespace {
+
+// "1763798400.022360123"; untimed chunks never come from a tty, "0" still makes a line
+// the reader accepts.
+std::string seconds_text(Nanos time) {
+    if (!has_time(time)) return "0";
+    const bool negative = time < 0;
+    const auto magnitude = static_cast<std::uint64_t>(negative ? -(time + 1) + 1 : time);
+    return fmt::format("{}{}.{:09}", negative ? "-" : "", magnitude / 1'000'000'000U,
+                       magnitude % 1'000'000'000U);
+}
+
+}  // namespace
+
+std::string capture_gap_line(Nanos from, Nanos to) {
+    return fmt::format("# gap {} {} (the port was gone: nothing was heard)\n", seconds_text(from),
+                       seconds_text(to));
+}
+
 std::string capture_line(const Chunk& chunk) {
-    // Untimed chunks never come from a tty; "0" still makes a line the reader accepts.
-    std::string line = "0";
-    if (has_time(chunk.time)) {
-        const bool negative = chunk.time < 0;
-        const auto magnitude =
-            static_cast<std::uint64_t>(negative ? -(chunk.time + 1) + 1 : chunk.time);
-        line = fmt::format("{}{}.{:09}", negative ? "-" : "", magnitude / 1'000'000'000U,
-                           magnitude % 1'000'000'000U);
-    }
+    std::string line = seconds_text(chunk.time);
     if (!chunk.channel.empty()) line += " @" + chunk.channel;
     line += ' ';
     append_hex(line, chunk.bytes, true);

@@ -21,4 +21,8 @@ std::string capture_header(const SourceInfo& header);
 // One data line of the capture format: "1763798400.022360123 @A 01 03 ...\n".
 std::string capture_line(const Chunk& chunk);
 
+// The line saying that nothing was heard between two times because the port was gone
+// (sniff --reopen): "# gap 1763798400.022360123 1763798461.500000000 (...)\n".
+std::string capture_gap_line(Nanos from, Nanos to);
+
 }  // namespace rtuscope

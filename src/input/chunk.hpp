@@ -48,6 +48,9 @@ struct Chunk {
     // cut it). Bytes at its end that form no whole frame were cut by the capture, not on
     // the line.
     std::uint32_t bytes_not_captured = 0;
+    // An empty chunk after the port was gone (an adapter unplugged, then back; sniff
+    // --reopen): nothing was heard from this time until the chunk's time.
+    Nanos gap_since = kNoTime;
     // Whole frames: Modbus/TCP (bytes: the unit id and the PDU) or RTU.
     Transport transport = Transport::rtu;
     Mbap mbap{};  // Modbus/TCP only

@@ -5,6 +5,7 @@
 
 #include <atomic>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <span>
@@ -30,6 +31,13 @@ struct TtyOptions {
     std::optional<Nanos> duration;            // stop after this long (--seconds)
     const std::atomic<bool>* stop = nullptr;  // set by SIGINT/SIGTERM: stop cleanly
     Nanos tick = 5'000'000;                   // idle ticks while nothing arrives
+    // A port that goes away (an adapter unplugged) is waited for and opened again with
+    // the same settings, rather than ending the run; the chunk after the wait says how
+    // long nothing was heard (Chunk::gap_since), and the source's remarks list the gaps.
+    bool reopen = false;
+    Nanos reopen_poll = 500'000'000;  // how often a port that went away is looked for
+    // Told at once when a port goes away and when it is back (sniff prints it).
+    std::function<void(const std::string&)> on_notice;
 };
 
 // Opens and configures the ports (raw, the line's speed and character format, parity

@@ -161,7 +161,10 @@ class TtySource final : public ChunkSource {
                 Chunk& chunk = reads_[i];
                 reuse(chunk);
                 if (fds[i].revents != 0) {
-                    if (Status s = read_port(port, fds[i].revents, chunk); !s) return s.error();
+                    if (Status s = read_port(port, fds[i].revents, chunk); !s) {
+                        if (!options_.reopen) return s.error();
+                        return wait_for_ports(s.error(), out);
+                    }
                 } else if (!port.batcher.batching()) {
                     continue;
                 }
@@ -181,7 +184,65 @@ class TtySource final : public ChunkSource {
         }
     }
 
+    [[nodiscard]] std::vector<std::string> remarks() const override { return gaps_; }
+
   private:
+    // A port went away (`why`): every port is closed, then opened again with the same
+    // settings once it is back; `out` is then the chunk that says how long nothing was
+    // heard. False when the run is stopped while waiting.
+    Result<bool> wait_for_ports(const Error& why, Chunk& out) {
+        const Nanos gone_at = to_wall(clock_ns(CLOCK_MONOTONIC));
+        for (Port& p : ports_) {
+            if (p.fd >= 0) ::close(p.fd);
+            p.fd = -1;
+        }
+        tell(fmt::format("{}; waiting for it to come back (--reopen)", why.to_string()));
+        for (;;) {
+            const timespec pause{static_cast<time_t>(options_.reopen_poll / kNanosPerSecond),
+                                 static_cast<long>(options_.reopen_poll % kNanosPerSecond)};
+            nanosleep(&pause, nullptr);  // a signal ends it early: the stop flag says
+            if (options_.stop != nullptr && options_.stop->load()) return false;
+            const Nanos now = clock_ns(CLOCK_MONOTONIC);
+            if (options_.duration && now - mono_start_ >= *options_.duration) return false;
+            if (reopen_ports()) break;
+        }
+        const Nanos back_at = to_wall(clock_ns(CLOCK_MONOTONIC));
+        const std::string gap = fmt::format(
+            "{} was gone from {} to {} ({:.1f} s) and was opened again: nothing was heard then",
+            info_.name, utc_text(gone_at), utc_text(back_at),
+            static_cast<double>(back_at - gone_at) / 1e9);
+        tell(gap);
+        gaps_.push_back(gap);
+        reuse(out);
+        out.time = back_at;
+        out.gap_since = gone_at;
+        for (Port& p : ports_) p.batcher = ReadBatcher(options_.line);
+        return true;
+    }
+
+    // Opens every port again; false (all closed) while one is still missing.
+    bool reopen_ports() {
+        std::vector<std::string> ignored;
+        for (Port& p : ports_) {
+            p.fd = open(p.path.c_str(), O_RDONLY | O_NOCTTY | O_NONBLOCK | O_CLOEXEC);
+            if (p.fd < 0 ||
+                !configure_port(p.fd, p.path, options_.line, ErrorMarks::as_the_format_checks,
+                                ignored)) {
+                for (Port& q : ports_) {
+                    if (q.fd >= 0) ::close(q.fd);
+                    q.fd = -1;
+                }
+                return false;
+            }
+            p.parmrk = ParmrkDecoder{};
+        }
+        return true;
+    }
+
+    void tell(const std::string& notice) const {
+        if (options_.on_notice) options_.on_notice(notice);
+    }
+
     // A chunk as new, with the room its buffers had.
     static void reuse(Chunk& chunk) {
         std::vector<std::uint8_t> bytes = std::move(chunk.bytes);
@@ -218,6 +279,7 @@ class TtySource final : public ChunkSource {
     Nanos wall_start_ = 0;
     std::array<Chunk, 2> reads_;
     bool second_ready_ = false;  // both ports had bytes: reads_[1] is handed over next
+    std::vector<std::string> gaps_;  // what each wait for a port that went away was
 };
 
 }  // namespace

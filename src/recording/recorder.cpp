@@ -49,6 +49,9 @@ Status Recorder::open(Nanos now) {
 Status Recorder::chunk(const Chunk& chunk) {
     if (deferred_) return *deferred_;
     if (has_time(chunk.time)) now_ = chunk.time;
+    if (has_time(chunk.gap_since)) {
+        if (Status s = files_.comment(capture_gap_line(chunk.gap_since, chunk.time)); !s) return s;
+    }
     if (!options_.windows) {
         if (chunk.bytes.empty()) return files_.idle(chunk.time);
         return files_.write(capture_line(chunk), chunk.time);

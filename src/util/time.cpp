@@ -1,5 +1,7 @@
 #include "util/time.hpp"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cstring>
 #include <ctime>
@@ -68,6 +70,15 @@ std::optional<std::int64_t> unix_from_local(CivilDate date, std::int64_t second_
     // -1 is also 1969-12-31 23:59:59 UTC, which no capture of a Modbus bus holds.
     if (t == static_cast<std::time_t>(-1)) return std::nullopt;
     return static_cast<std::int64_t>(t);
+}
+
+std::string utc_text(Nanos time) {
+    const std::int64_t seconds = floor_div(time, kNanosPerSecond);
+    const std::int64_t day = floor_div(seconds, 86'400);
+    const std::int64_t second_of_day = seconds - day * 86'400;
+    const CivilDate date = civil_from_days(day);
+    return fmt::format("{:04}-{:02}-{:02}T{:02}:{:02}:{:02}Z", date.year, date.month, date.day,
+                       second_of_day / 3600, second_of_day / 60 % 60, second_of_day % 60);
 }
 
 }  // namespace rtuscope

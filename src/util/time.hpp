@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <ctime>
 #include <limits>
+#include <string>
 #include <optional>
 
 namespace rtuscope {
@@ -63,6 +64,9 @@ struct CivilDate {
 // Days since 1970-01-01 of a date, and back.
 std::int64_t days_from_civil(std::int64_t year, unsigned month, unsigned day);
 CivilDate civil_from_days(std::int64_t days);
+
+// "2026-11-28T03:12:01Z": a unix time in UTC, to the second.
+std::string utc_text(Nanos time);
 
 // The clock's time now (CLOCK_MONOTONIC for intervals, CLOCK_REALTIME for stamps).
 Nanos clock_ns(clockid_t clock);
