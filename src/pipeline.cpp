@@ -23,9 +23,8 @@
 #include "output/sinks.hpp"
 
 namespace rtuscope {
-namespace {
 
-void count(Totals& totals, const Record& record) {
+void count_record(Totals& totals, const Record& record) {
     ++totals.records;
     totals.bytes += record.frame.bytes.size();
     if (record.notes.has(note_id::cut_by_stop)) {
@@ -65,8 +64,6 @@ void count(Totals& totals, const Record& record) {
     if (record.answers_no_request()) ++totals.unsolicited;
 }
 
-}  // namespace
-
 Status run_pipeline(ChunkSource& source, const PipelineOptions& options, RecordSink& sink,
                     Totals* totals_out) {
     SessionInfo session;
@@ -94,7 +91,7 @@ Status run_pipeline(ChunkSource& source, const PipelineOptions& options, RecordS
     const ProtocolRules* rules = bus_rules ? &*bus_rules : &standard_rules();
     Transactions transactions({options.timeout, rules}, [&](Record&& record) {
         decode_record(record, *rules, options.bus);
-        count(totals, record);
+        count_record(totals, record);
         sink.record(record);
         if (options.live) sink.flush();
     });

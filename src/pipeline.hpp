@@ -69,6 +69,9 @@ struct Totals {
     std::vector<std::string> remarks;
 };
 
+// Counts `record` into `totals`, as the pipeline does for the closing summary.
+void count_record(Totals& totals, const Record& record);
+
 class RecordSink {
   public:
     virtual ~RecordSink() = default;

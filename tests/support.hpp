@@ -5,9 +5,12 @@
 #include <unistd.h>
 
 #include <cstdio>
+#include <cstdlib>
+#include <ctime>
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <optional>
 #include <initializer_list>
 #include <memory>
 #include <numeric>
@@ -182,6 +185,29 @@ struct Harness {
     std::size_t input_bytes = 0;
     Transactions transactions;
     Framer framer;
+};
+
+// TZ for one test: the text and the daily lines go by local time.
+class ScopedZone {
+  public:
+    explicit ScopedZone(const char* zone) {
+        if (const char* old = std::getenv("TZ")) old_ = old;
+        ::setenv("TZ", zone, 1);
+        ::tzset();
+    }
+    ~ScopedZone() {
+        if (old_) {
+            ::setenv("TZ", old_->c_str(), 1);
+        } else {
+            ::unsetenv("TZ");
+        }
+        ::tzset();
+    }
+    ScopedZone(const ScopedZone&) = delete;
+    ScopedZone& operator=(const ScopedZone&) = delete;
+
+  private:
+    std::optional<std::string> old_;
 };
 
 // Keeps everything run_pipeline delivers.

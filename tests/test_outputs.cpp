@@ -153,30 +153,9 @@ TEST(Text, TimeColumnAbsoluteRelativeAndDelta) {
               (std::vector<std::string>{"       0.000000", "       0.240000", "       0.050000"}));
 }
 
-// TZ for one test: the text shows local time.
-class ScopedZone {
-  public:
-    explicit ScopedZone(const char* zone) {
-        if (const char* old = std::getenv("TZ")) old_ = old;
-        ::setenv("TZ", zone, 1);
-        ::tzset();
-    }
-    ~ScopedZone() {
-        if (old_) {
-            ::setenv("TZ", old_->c_str(), 1);
-        } else {
-            ::unsetenv("TZ");
-        }
-        ::tzset();
-    }
-    ScopedZone(const ScopedZone&) = delete;
-    ScopedZone& operator=(const ScopedZone&) = delete;
-
-  private:
-    std::optional<std::string> old_;
-};
-
 // Central European time and its summer time, as a POSIX rule: no tzdata needed.
+using test::ScopedZone;
+
 constexpr const char* kBerlin = "CET-1CEST,M3.5.0,M10.5.0/3";
 
 // The text's lines after the header and before the closing summary: date lines and

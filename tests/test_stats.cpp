@@ -16,6 +16,7 @@
 #include "input/sources.hpp"
 #include "profiles/bus.hpp"
 #include "output/sinks.hpp"
+#include "stats/health.hpp"
 #include "stats/report.hpp"
 #include "support.hpp"
 #include "traffic.hpp"
@@ -1088,6 +1089,68 @@ TEST(StatsProfiles, RowsAndPollsFollowTheDevicesOwnFunctions) {
     EXPECT_EQ(text.find("Read Input Registers"), std::string::npos) << text;
     EXPECT_NE(text.find("1  04  00 15 00 12"), std::string::npos) << text;
     EXPECT_EQ(text.find("0x0015 x18"), std::string::npos) << text;
+}
+
+// The daily health line: each local day's counts, told when the next day's first record
+// or tick comes.
+TEST(HealthLine, TellsEachLocalDayItsCountsAtMidnight) {
+    for (const char* zone : {"UTC0", "CET-1"}) {
+        const test::ScopedZone tz(zone);
+        std::vector<std::string> lines;
+        HealthOptions options;
+        options.emit = [&](const std::string& line) { lines.push_back(line); };
+        options.extra = [] { return std::string("3 files written"); };
+        auto sink = make_health_sink(options, std::make_unique<test::CollectingSink>());
+        SessionInfo session;
+        session.source.time_base = TimeBase::unix_time;
+        sink->begin(session);
+        // 2026-11-27 22:59:50 UTC: 23:59:50 in CET.
+        constexpr Nanos kEvening = 1'795'820'390 * kNanosPerSecond;
+        Record request;
+        request.kind = Kind::request;
+        request.awaits_answer = true;
+        request.frame.bytes = {1, 3, 0, 0, 0, 1, 0x84, 0x0A};
+        Record answer = request;
+        answer.kind = Kind::response;
+        request.frame.start = kEvening;
+        sink->record(request);
+        answer.frame.start = kEvening + 5 * kNanosPerSecond;
+        sink->record(answer);
+        // 20 s later: past midnight in CET, not in UTC.
+        request.frame.start = kEvening + 20 * kNanosPerSecond;
+        sink->record(request);
+        sink->idle(kEvening + 3700 * kNanosPerSecond);  // past midnight UTC too
+        sink->end(Totals{}, {});
+        if (std::string(zone) == "UTC0") {
+            ASSERT_EQ(lines.size(), 1U);
+            EXPECT_EQ(lines[0],
+                      "health of 2026-11-27: 3 frames (2 requests, 1 answer, 0 exceptions), "
+                      "0 errors (0 bad CRC, 0 invalid, 0 noise bytes), 0 requests without answer; "
+                      "3 files written");
+        } else {
+            // The 28th, begun at the third record, is not over.
+            ASSERT_EQ(lines.size(), 1U);
+            EXPECT_TRUE(lines[0].starts_with("health of 2026-11-27: 2 frames (1 request, 1 answer,"))
+                << lines[0];
+        }
+    }
+}
+
+TEST(HealthLine, RelativeTimesHaveNoDays) {
+    std::vector<std::string> lines;
+    HealthOptions options;
+    options.emit = [&](const std::string& line) { lines.push_back(line); };
+    auto sink = make_health_sink(options, std::make_unique<test::CollectingSink>());
+    SessionInfo session;
+    session.source.time_base = TimeBase::relative;
+    sink->begin(session);
+    Record r;
+    r.kind = Kind::request;
+    for (Nanos day = 0; day < 3; ++day) {
+        r.frame.start = day * kNanosPerDay + 5;
+        sink->record(r);
+    }
+    EXPECT_TRUE(lines.empty());
 }
 
 }  // namespace

@@ -1,6 +1,7 @@
 #include "sniff_command.hpp"
 
 #include <fmt/format.h>
+#include <syslog.h>
 
 #include <algorithm>
 #include <atomic>
@@ -16,6 +17,7 @@
 #include "input/capture_writer.hpp"
 #include "recording/recorder.hpp"
 #include "input/tty.hpp"
+#include "stats/health.hpp"
 #include "util/output_file.hpp"
 #include "output_options.hpp"
 #include "sim/sim.hpp"
@@ -53,6 +55,9 @@ void add_recording_options(CLI::App& cmd, LiveArgs& args) {
         ->check(CLI::PositiveNumber);
     cmd.add_option("--seconds", args.seconds, "Stop after this many seconds (default: Ctrl-C)")
         ->check(CLI::PositiveNumber);
+    cmd.add_flag("--syslog", args.syslog,
+                 "Send the daily health line (each local day's counts, at midnight) to syslog "
+                 "rather than to stderr");
     cmd.add_flag("--reopen", args.reopen,
                  "When the port goes away (an adapter unplugged), wait for it and open it again "
                  "with the same settings, noting the gap, rather than ending with status 1");
@@ -77,6 +82,24 @@ void print_recording_summary(const RecordingCounts& counts, const LiveArgs& args
     if (counts.files == 0 || counts.last_file == args.write_file) return;
     fmt::print(stderr, "rtuscope: recorded {} {}, the last {}\n", counts.files,
                plural(counts.files, "file", "files"), counts.last_file);
+}
+
+// What a recording did, for the daily health line: "12 files".
+std::string recording_text(const Recorder& recorder) {
+    const RecordingCounts counts = recorder.counts();
+    return fmt::format("{} {} written", counts.files, plural(counts.files, "file", "files"));
+}
+
+HealthOptions health_options(const LiveArgs& args, const std::shared_ptr<Recorder>& recorder) {
+    HealthOptions options;
+    if (args.syslog) {
+        openlog("rtuscope", LOG_PID, LOG_DAEMON);
+        options.emit = [](const std::string& line) { ::syslog(LOG_INFO, "%s", line.c_str()); };
+    } else {
+        options.emit = [](const std::string& line) { fmt::print(stderr, "rtuscope: {}\n", line); };
+    }
+    if (recorder) options.extra = [recorder] { return recording_text(*recorder); };
+    return options;
 }
 
 }  // namespace
@@ -128,6 +151,7 @@ int run_live(const LiveArgs& args, Decoding& decoding, TtyOptions tty) {
         if (Status s = recorder->open(clock_ns(CLOCK_REALTIME)); !s) return print_error(s.error()), 1;
         input = record_chunks(std::move(input), recorder);
     }
+    decoding.sink = make_health_sink(health_options(args, recorder), std::move(decoding.sink));
     decoding.options.live = true;
     // The port's settings are the line's: a capture header cannot say otherwise here.
     decoding.options.baud = tty.line.baud;
@@ -135,17 +159,7 @@ int run_live(const LiveArgs& args, Decoding& decoding, TtyOptions tty) {
 
     Totals totals;
     const Status status = run_pipeline(*input, decoding.options, *decoding.sink, &totals);
-    const auto n = [](std::uint64_t count, std::string_view one, std::string_view many) {
-        return fmt::format("{} {}", count, plural(count, one, many));
-    };
-    fmt::print(stderr,
-               "rtuscope: {} ({}, {}, {}), {} ({} bad CRC, {} invalid, {}), {} without answer\n",
-               n(totals.records - totals.noise_runs, "frame", "frames"),
-               n(totals.requests, "request", "requests"), n(totals.responses, "answer", "answers"),
-               n(totals.exceptions, "exception", "exceptions"),
-               n(totals.crc_bad + totals.invalid + totals.noise_runs, "error", "errors"),
-               totals.crc_bad, totals.invalid, n(totals.noise_bytes, "noise byte", "noise bytes"),
-               n(totals.unanswered, "request", "requests"));
+    fmt::print(stderr, "rtuscope: {}\n", totals_text(totals));
     if (recorder) print_recording_summary(recorder->counts(), args);
     if (!status) return print_error(status.error()), 1;
     if (Status pcap = pcap_status(decoding); !pcap) return print_error(pcap.error()), 1;

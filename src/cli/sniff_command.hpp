@@ -31,6 +31,7 @@ struct LiveArgs {
     std::size_t rotate_files = 0;  // --rotate-files
     double seconds = 0;  // 0: until stopped
     bool reopen = false;  // --reopen: wait for a port that went away
+    bool syslog = false;  // --syslog: the daily health line to syslog, not stderr
     bool detect_line = false;  // --baud auto: find the settings before sniffing
 };
 // Takes `--baud auto` out of the output options (which parse a number) into
