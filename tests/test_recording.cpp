@@ -253,7 +253,8 @@ TEST(Rotation, TheSignalStartsTheNextFileAtOnce) {
     options.path = dir.file("bus.rtucap");
     options.rotation.rotate_now = &rotate;
     options.rotation.stamp_names = true;
-    // A sink that asks for a rotation at the 100th record, as SIGUSR1 does.
+    // A sink that asks for a rotation at the 5th record (in the first second), as SIGUSR1
+    // does.
     struct Asking final : RecordSink {
         std::atomic<bool>& flag;
         int n = 0;
@@ -261,11 +262,14 @@ TEST(Rotation, TheSignalStartsTheNextFileAtOnce) {
         void begin(const SessionInfo&) override {}
         void end(const Totals&, const std::vector<std::string>&) override {}
         void record(const Record&) override {
-            if (++n == 100) flag.store(true);
+            if (++n == 5) flag.store(true);
         }
     };
     record(line, options, [&](Recorder&) { return std::make_unique<Asking>(rotate); });
-    EXPECT_EQ(files_in(dir).size(), 2U);
+    ASSERT_EQ(files_in(dir).size(), 2U);
+    // The second file starts within the first one's second; its name sorts after it.
+    EXPECT_EQ(files_in(dir)[0], dir.file("bus-20261128T030000Z.rtucap"));
+    EXPECT_EQ(files_in(dir)[1], dir.file("bus-20261128T030000Z_002.rtucap"));
     EXPECT_EQ(decoded_files(files_in(dir)), decoded(*std::make_unique<ChunkList>(line.chunks, line.info)));
 }
 

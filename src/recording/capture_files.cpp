@@ -42,12 +42,13 @@ std::string CaptureFiles::unused_name(Nanos time) {
         return candidate == current_ || std::find(kept_.begin(), kept_.end(), candidate) != kept_.end();
     };
     if (!used(name)) return name;
-    // After the stamp: "bus-20261128T030000Z-2.rtucap".
+    // After the stamp: "bus-20261128T030000Z_002.rtucap", which sorts after
+    // "bus-20261128T030000Z.rtucap" ('_' after '.') and before the next second's.
     const std::string stamped = stamped_name("", time);
     const std::size_t stamp_end = name.find(stamped) + stamped.size();
     for (int n = 2;; ++n) {
         std::string candidate = name;
-        candidate.insert(stamp_end, fmt::format("-{}", n));
+        candidate.insert(stamp_end, fmt::format("_{:03}", n));
         if (!used(candidate)) return candidate;
     }
 }

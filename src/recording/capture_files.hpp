@@ -6,7 +6,8 @@
 // named after the UTC time of its first data: "bus.rtucap" gives
 // "bus-20261128T030000Z.rtucap" (the stamp goes before the first dot of the name, so
 // "bus.rtucap.zst" gives "bus-20261128T030000Z.rtucap.zst"); a second file starting in
-// the same second gets "-2", "-3" after the stamp. The names sort in time order.
+// the same second gets "_002", "_003" after the stamp. The names sort in time order, as
+// the shell and `decode 'bus-*.rtucap'` list them.
 //
 // A file that ends by rotation says so in its last line, `# continued in NAME`, and the
 // next one in the line after its header, `# continues NAME`: decoded alone, a frame cut

@@ -1,0 +1,48 @@
+#!/usr/bin/env bash
+# A long run's recording: files by the clock, SIGUSR1 starting the next file, decoded
+# together as the live run showed the line; SIGHUP ending a run as SIGTERM does; rotation
+# options without -w refused.
+# Usage: recording.sh RTUSCOPE
+set -uo pipefail
+rtuscope=$1
+dir=$(mktemp -d)
+trap 'rm -rf "$dir"' EXIT
+fail() { echo "FAIL: $*" >&2; exit 1; }
+records() { grep -E '^ *[0-9]+ [0-9:.]+ ' "$1"; }
+
+"$rtuscope" demo --no-color --seconds 4 -w "$dir/bus.rtucap" --rotate-seconds 1 \
+    >"$dir/live" 2>"$dir/live.err" &
+pid=$!
+sleep 2.5
+kill -USR1 "$pid"
+wait "$pid" || fail "demo: $(cat "$dir/live.err")"
+files=("$dir"/bus-*.rtucap)
+[ ${#files[@]} -ge 5 ] || fail "${#files[@]} files for 4 s by the second and a SIGUSR1: ${files[*]}"
+for f in "${files[@]}"; do
+    [[ $(basename "$f") =~ ^bus-20[0-9]{6}T[0-9]{6}Z(_[0-9]{3})?\.rtucap$ ]] || fail "file name $f"
+    head -1 "$f" | grep -qx '# rtuscope capture v1' || fail "$f has no header"
+done
+ls "$dir" | grep -q '_002\.rtucap$' || fail "no second file within a second after SIGUSR1: $(ls "$dir")"
+grep -q "recorded ${#files[@]} files, the last" "$dir/live.err" || fail "no recording summary: $(cat "$dir/live.err")"
+"$rtuscope" decode --no-color "$dir/bus-*.rtucap" >"$dir/later" 2>"$dir/later.err" ||
+    fail "decode of the files: $(cat "$dir/later.err")"
+[ "$(records "$dir/live" | wc -l)" -gt 20 ] || fail "too few records live"
+diff <(records "$dir/live") <(records "$dir/later") >"$dir/diff" ||
+    fail "the files decode otherwise than the live run showed: $(head "$dir/diff")"
+
+# SIGHUP: a clean stop, the capture ended with its stop line.
+"$rtuscope" demo --no-color -w "$dir/hup.rtucap" >"$dir/hup.out" 2>"$dir/hup.err" &
+pid=$!
+sleep 1.5
+kill -HUP "$pid"
+rc=0; wait "$pid" || rc=$?
+[ "$rc" -eq 0 ] || fail "exit status $rc after SIGHUP: $(cat "$dir/hup.err")"
+grep -q '^rtuscope: [0-9]* frames' "$dir/hup.err" || fail "no summary after SIGHUP"
+[ "$(tail -1 "$dir/hup.rtucap")" = "# stopped (the live run ended here)" ] ||
+    fail "the capture does not end with the stop after SIGHUP"
+
+# Rotation needs a file to rotate.
+rc=0; "$rtuscope" demo --seconds 1 --rotate-seconds 60 >/dev/null 2>"$dir/opt.err" || rc=$?
+[ "$rc" -eq 2 ] || fail "--rotate-seconds without -w: exit $rc"
+grep -q 'need -w FILE' "$dir/opt.err" || fail "unclear error: $(cat "$dir/opt.err")"
+echo "ok"
