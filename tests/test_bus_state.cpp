@@ -7,11 +7,13 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <sstream>
 #include <string>
 
 #include "input/sources.hpp"
 #include "profiles/bus.hpp"
 #include "state/bus_state.hpp"
+#include "watch/watch.hpp"
 #include "support.hpp"
 
 namespace rtuscope {
@@ -254,6 +256,40 @@ TEST(BusState, FiguresAgreeWithStatsOnEveryCapture) {
         ++captures;
     }
     EXPECT_GT(captures, 20U);
+}
+
+// watch --plain: each table's heading says the local time, with the date on the first
+// one and whenever the date changes; and what the recording did, when there is one.
+TEST(PlainDisplay, HeadingsShowTheDateWhenItChangesAndTheRecording) {
+    const test::ScopedZone tz("UTC0");
+    char* text = nullptr;
+    std::size_t size = 0;
+    std::FILE* out = open_memstream(&text, &size);
+    ASSERT_NE(out, nullptr);
+    {
+        auto display = make_plain_display(out, 3600 * kNanosPerSecond);
+        int files = 1;
+        display->set_recording([&] { return fmt::format("recording bus.rtucap ({} files)", files); });
+        BusState state;
+        constexpr Nanos kEvening = 1'795'823'990 * kNanosPerSecond;  // 2026-11-27 23:59:50 UTC
+        display->show(state, kEvening);  // the first interval starts
+        display->show(state, kEvening + 3600 * kNanosPerSecond);
+        files = 2;
+        display->show(state, kEvening + 7200 * kNanosPerSecond);
+        display->show(state, kEvening + 2 * 86'400 * kNanosPerSecond);
+    }
+    std::fclose(out);
+    const std::string shown(text, size);
+    std::free(text);
+    std::vector<std::string> headings;
+    std::istringstream in(shown);
+    for (std::string line; std::getline(in, line);) {
+        if (line.starts_with("-- at ") || line.starts_with("recording ")) headings.push_back(line);
+    }
+    EXPECT_EQ(headings, (std::vector<std::string>{
+                            "-- at 2026-11-28 00:59:50", "recording bus.rtucap (1 files)",
+                            "-- at 01:59:50", "recording bus.rtucap (2 files)",
+                            "-- at 2026-11-29 23:59:50", "recording bus.rtucap (2 files)"}));
 }
 
 }  // namespace

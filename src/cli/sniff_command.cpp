@@ -76,18 +76,21 @@ RecordingOptions recording_options(const LiveArgs& args) {
     return options;
 }
 
-// "rtuscope: recorded 12 files, the last bus-20261128T030000Z.rtucap" when the names are
-// not the one -w gave.
-void print_recording_summary(const RecordingCounts& counts, const LiveArgs& args) {
-    if (counts.files == 0 || counts.last_file == args.write_file) return;
-    fmt::print(stderr, "rtuscope: recorded {} {}, the last {}\n", counts.files,
-               plural(counts.files, "file", "files"), counts.last_file);
-}
-
-// What a recording did, for the daily health line: "12 files".
-std::string recording_text(const Recorder& recorder) {
+// "rtuscope: recorded 12 files, the last bus-20261128T030000Z.rtucap; 3 trigger events,
+// 2 windows" when the names are not the one -w gave.
+void print_recording_summary(const Recorder& recorder, const LiveArgs& args) {
     const RecordingCounts counts = recorder.counts();
-    return fmt::format("{} {} written", counts.files, plural(counts.files, "file", "files"));
+    if (counts.last_file == args.write_file && !recorder.triggered()) return;
+    std::string text = counts.files == 0 ? std::string("recorded no file")
+                                         : fmt::format("recorded {} {}, the last {}", counts.files,
+                                                       plural(counts.files, "file", "files"),
+                                                       counts.last_file);
+    if (recorder.triggered()) {
+        text += fmt::format("; {} trigger {}, {} {}", counts.events,
+                            plural(counts.events, "event", "events"), counts.windows,
+                            plural(counts.windows, "window", "windows"));
+    }
+    fmt::print(stderr, "rtuscope: {}\n", text);
 }
 
 HealthOptions health_options(const LiveArgs& args, const std::shared_ptr<Recorder>& recorder) {
@@ -98,7 +101,9 @@ HealthOptions health_options(const LiveArgs& args, const std::shared_ptr<Recorde
     } else {
         options.emit = [](const std::string& line) { fmt::print(stderr, "rtuscope: {}\n", line); };
     }
-    if (recorder) options.extra = [recorder] { return recording_text(*recorder); };
+    if (recorder) {
+        options.extra = [recorder] { return recording_text(recorder->counts(), recorder->triggered()); };
+    }
     return options;
 }
 
@@ -150,6 +155,11 @@ int run_live(const LiveArgs& args, Decoding& decoding, TtyOptions tty) {
             recording_options(args), capture_header(live_capture_header(decoding, input->info())));
         if (Status s = recorder->open(clock_ns(CLOCK_REALTIME)); !s) return print_error(s.error()), 1;
         input = record_chunks(std::move(input), recorder);
+        if (args.on_recording) {
+            args.on_recording([recorder] {
+                return recording_text(recorder->counts(), recorder->triggered());
+            });
+        }
     }
     decoding.sink = make_health_sink(health_options(args, recorder), std::move(decoding.sink));
     decoding.options.live = true;
@@ -160,7 +170,7 @@ int run_live(const LiveArgs& args, Decoding& decoding, TtyOptions tty) {
     Totals totals;
     const Status status = run_pipeline(*input, decoding.options, *decoding.sink, &totals);
     fmt::print(stderr, "rtuscope: {}\n", totals_text(totals));
-    if (recorder) print_recording_summary(recorder->counts(), args);
+    if (recorder) print_recording_summary(*recorder, args);
     if (!status) return print_error(status.error()), 1;
     if (Status pcap = pcap_status(decoding); !pcap) return print_error(pcap.error()), 1;
     return 0;

@@ -32,6 +32,8 @@ struct LiveArgs {
     double seconds = 0;  // 0: until stopped
     bool reopen = false;  // --reopen: wait for a port that went away
     bool syslog = false;  // --syslog: the daily health line to syslog, not stderr
+    // Given what the recording has done, once -w's recorder exists (watch shows it).
+    std::function<void(std::function<std::string()>)> on_recording;
     bool detect_line = false;  // --baud auto: find the settings before sniffing
 };
 // Takes `--baud auto` out of the output options (which parse a number) into

@@ -104,6 +104,9 @@ int watch_live(WatchArgs args) {
     if (!telemetry) return exit_code;
     const std::unique_ptr<Display> display = make_display(args, false);
     add_watch_sink(*decoding, *telemetry, *display);
+    args.live.on_recording = [&](std::function<std::string()> status) {
+        display->set_recording(std::move(status));
+    };
     auto run = [&](std::vector<std::string> ports) {
         TtyOptions tty;
         tty.ports = std::move(ports);

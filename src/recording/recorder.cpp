@@ -156,6 +156,19 @@ Status Recorder::finish() {
     return files_.end(kStoppedLine);
 }
 
+std::string recording_text(const RecordingCounts& counts, bool triggered) {
+    std::string text = counts.files == 0
+                           ? std::string("recording: no file yet")
+                           : fmt::format("recording {} ({} {})", counts.last_file, counts.files,
+                                         counts.files == 1 ? "file" : "files");
+    if (triggered) {
+        text += fmt::format("; {} trigger {}, {} {}", counts.events,
+                            counts.events == 1 ? "event" : "events", counts.windows,
+                            counts.windows == 1 ? "window" : "windows");
+    }
+    return text;
+}
+
 RecordingCounts Recorder::counts() const {
     return {events_, windows_, files_.files_started(), files_.current_name()};
 }

@@ -49,6 +49,10 @@ struct RecordingCounts {
     std::string last_file;
 };
 
+// "recording bus-20261128T030000Z.rtucap (12 files)", and with triggers "; 3 trigger
+// events, 2 windows": what watch shows and the run's summary says.
+std::string recording_text(const RecordingCounts& counts, bool triggered);
+
 class Recorder {
   public:
     // `header`: what the files' header says (capture_header()).
@@ -71,6 +75,7 @@ class Recorder {
     // The first error met by event(), which has no way to return one.
     [[nodiscard]] std::optional<Error> deferred_error() const { return deferred_; }
     [[nodiscard]] RecordingCounts counts() const;
+    [[nodiscard]] bool triggered() const { return options_.windows.has_value(); }
 
   private:
     struct Held {

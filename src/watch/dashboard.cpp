@@ -289,6 +289,7 @@ class Dashboard final : public Display {
         }
         int row = 0;
         line(row++, bus_line(state, view_), LineStyle::heading);
+        if (const std::string status = recording(); !status.empty()) line(row++, status, LineStyle::plain);
         const std::vector<StyledLine> slaves = slave_table(state, view_);
         const std::vector<const SlaveState*> slave_list = state.slaves();
         if (selected_ >= slave_list.size()) selected_ = slave_list.empty() ? 0 : slave_list.size() - 1;

@@ -5,6 +5,7 @@
 
 #include <atomic>
 #include <cstdio>
+#include <functional>
 #include <memory>
 #include <string>
 
@@ -22,6 +23,16 @@ class Display {
     // The input ended (or the run was stopped): the last state. Called without the
     // state's mutex: a replay's last screen may wait for `q` while a scrape reads it.
     virtual void finish(SharedState& shared, Nanos now) = 0;
+    // What the run's recording has done ("recording bus-...Z.rtucap, 12 files; 3 trigger
+    // events, 2 windows"), shown with the state; called on the pipeline's thread, as
+    // show() is.
+    void set_recording(std::function<std::string()> status) { recording_ = std::move(status); }
+
+  protected:
+    [[nodiscard]] std::string recording() const { return recording_ ? recording_() : std::string(); }
+
+  private:
+    std::function<std::string()> recording_;
 };
 
 // Tables as text on `out` each time `interval` passes on the records' clock, and at the

@@ -1,5 +1,7 @@
 #include <fmt/format.h>
 
+#include <limits>
+
 #include "state/state_text.hpp"
 #include "util/text.hpp"
 #include "watch/watch.hpp"
@@ -54,12 +56,25 @@ class PlainDisplay final : public Display {
         StateView view;
         view.now = now;
         std::string text = "-- at ";
-        if (has_time(now)) {
-            append_seconds(text, now);
-        } else {
+        if (!has_time(now)) {
             text += "the end (no timing)";
+        } else if (time_base_of(now) == TimeBase::unix_time) {
+            // The local time of day, with the date on the first table and whenever it
+            // changes: a run left for weeks reads as a log does.
+            const LocalTime local = local_time(floor_div(now, kNanosPerSecond));
+            const std::int64_t day = days_from_civil(local.date.year, local.date.month, local.date.day);
+            if (day != shown_day_) {
+                shown_day_ = day;
+                text += fmt::format("{:04}-{:02}-{:02} ", local.date.year, local.date.month,
+                                    local.date.day);
+            }
+            text += fmt::format("{:02}:{:02}:{:02}", local.second_of_day / 3600,
+                                local.second_of_day / 60 % 60, local.second_of_day % 60);
+        } else {
+            append_seconds(text, now);
         }
         text += '\n';
+        if (const std::string status = recording(); !status.empty()) text += status + '\n';
         text += state_text(state, view);
         text += '\n';
         std::fputs(text.c_str(), out_);
@@ -69,6 +84,7 @@ class PlainDisplay final : public Display {
     std::FILE* out_;
     Nanos interval_;
     Nanos next_ = kNoTime;
+    std::int64_t shown_day_ = std::numeric_limits<std::int64_t>::min();
 };
 
 }  // namespace
