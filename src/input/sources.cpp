@@ -12,6 +12,7 @@
 #include <cerrno>
 #include <cstring>
 
+#include "input/decompress.hpp"
 #include "input/pcap.hpp"
 #include "input/readers.hpp"
 #include "util/io_block.hpp"
@@ -196,6 +197,34 @@ Result<std::unique_ptr<ChunkSource>> make_source(std::unique_ptr<detail::InputBu
     return detail::make_raw_reader(std::move(in));
 }
 
+// The first bytes of `file`, for the sniffing of its compression and format;
+// `read_errno`: why a read failed after them, 0 when none did.
+std::string read_head(std::FILE* file, int& read_errno) {
+    std::string head(kSniffBytes, '\0');
+    const std::size_t n = std::fread(head.data(), 1, head.size(), file);
+    read_errno = n < head.size() && std::ferror(file) != 0 ? (errno != 0 ? errno : EIO) : 0;
+    head.resize(n);
+    return head;
+}
+
+// The reader of `format` (guessed from `head` when automatic) over `head`, then `file`.
+Result<std::unique_ptr<ChunkSource>> open_reader(std::string head, std::FILE* file, bool close_file,
+                                                 const std::string& path, InputFormat format,
+                                                 const PcapOptions& pcap) {
+    if (format == InputFormat::automatic) {
+        if (head.empty()) {
+            if (close_file) std::fclose(file);
+            return Error{"is empty: nothing to decode", path};
+        }
+        format = detect_input_format(head);
+    }
+    if (format == InputFormat::pcap) {
+        return pcap_source_from_stream(std::move(head), file, close_file, path, pcap);
+    }
+    auto in = std::make_unique<detail::InputBuffer>(std::move(head), file, close_file, path);
+    return make_source(std::move(in), format);
+}
+
 }  // namespace
 
 Result<InputFormat> parse_input_format(std::string_view name) {
@@ -288,27 +317,47 @@ Result<std::unique_ptr<ChunkSource>> open_source(const std::string& path, InputF
     }
     // Sniffed bytes are kept and handed to the reader rather than seeking back, so pipes
     // and stdin work the same as files.
-    std::string head;
-    if (format == InputFormat::automatic) {
-        head.resize(kSniffBytes);
-        const std::size_t n = std::fread(head.data(), 1, head.size(), file);
-        if (n < head.size() && std::ferror(file) != 0) {
-            const int err = errno;
-            if (!is_stdin) std::fclose(file);
-            return Error{fmt::format("cannot read: {}", std::strerror(err)), path};
-        }
-        head.resize(n);
-        if (head.empty()) {
-            if (!is_stdin) std::fclose(file);
-            return Error{"is empty: nothing to decode", path};
-        }
-        format = detect_input_format(head);
+    int read_errno = 0;
+    std::string head = read_head(file, read_errno);
+    if (read_errno != 0) {
+        if (!is_stdin) std::fclose(file);
+        return Error{fmt::format("cannot read: {}", std::strerror(read_errno)), path};
     }
-    if (format == InputFormat::pcap) {
-        return pcap_source_from_stream(std::move(head), file, !is_stdin, path, pcap);
+    bool close_file = !is_stdin;
+    // Compressed input is taken apart whatever its format, and its head read again.
+    std::shared_ptr<const Decompression> decompression;
+    if (const Compression compression = compression_of(head); compression != Compression::none) {
+        Result<DecompressingStream> stream =
+            open_decompressing(compression, std::move(head), file, close_file, path);
+        if (!stream) return stream.error();
+        file = stream->file;
+        close_file = true;  // the stream, not what it reads: closing it leaves stdin open
+        decompression = stream->state;
+        head = read_head(file, read_errno);
+        // Corrupt data after whole blocks: those are read first, the error after them.
+        if (read_errno != 0 && (decompression->error.empty() || head.empty())) {
+            std::fclose(file);
+            return decompression->error.empty()
+                       ? Error{fmt::format("cannot read: {}", std::strerror(read_errno)), path}
+                       : Error{decompression->error, path};
+        }
+        std::clearerr(file);
+        if (head.empty() && decompression->cut_off) {
+            std::fclose(file);
+            return Error{fmt::format("ends inside its first {} (cut off before it was complete): "
+                                     "nothing to decode",
+                                     block_name(decompression->compression)),
+                         path};
+        }
     }
-    auto in = std::make_unique<detail::InputBuffer>(std::move(head), file, !is_stdin, path);
-    return make_source(std::move(in), format);
+    Result<std::unique_ptr<ChunkSource>> source =
+        open_reader(std::move(head), file, close_file, path, format, pcap);
+    if (!decompression) return source;
+    if (!source) {
+        if (!decompression->error.empty()) return Error{decompression->error, path};
+        return source;
+    }
+    return with_decompression(std::move(*source), std::move(decompression));
 }
 
 Result<std::unique_ptr<ChunkSource>> source_from_memory(std::string content, std::string name,
