@@ -66,6 +66,7 @@ Status CaptureFiles::start(Nanos time) {
     std::string head = header_;
     if (files_started_ > 0) head += fmt::format("# continues {}\n", current_);
     if (Status s = file_->write(head); !s) return s;
+    if (Status s = file_->end_block(); !s) return s;
     current_ = name;
     ++files_started_;
     data_bytes_ = 0;

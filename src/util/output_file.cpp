@@ -47,6 +47,7 @@ class PlainFile final : public OutputFile {
         return s;
     }
     Status tick() override { return ok_status(); }
+    Status end_block() override { return ok_status(); }
     Status close() override {
         if (fd_ < 0) return ok_status();
         const int fd = fd_;
@@ -209,10 +210,10 @@ class BlockFile final : public OutputFile {
     [[nodiscard]] std::uint64_t size() const override { return size_; }
     [[nodiscard]] std::uint64_t bytes_in() const override { return bytes_in_; }
 
-  private:
     // Errors stick: a block cut short by a failed write would make every later one
     // unreadable.
-    Status end_block() {
+    Status end_block() override {
+        if (failed_) return *failed_;
         if (block_.empty()) return ok_status();
         Status s = compressor_->compress(block_, packed_);
         if (s) s = write_all(fd_, packed_, path());

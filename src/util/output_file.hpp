@@ -42,6 +42,9 @@ class OutputFile {
     // Ends the block when it is due; the writer calls it while the line is idle, so that
     // a quiet line does not hold data back longer than the interval.
     virtual Status tick() = 0;
+    // Ends the block now: what was written is on disk and decodes (a file's header, so
+    // that a file never exists without one).
+    virtual Status end_block() = 0;
     // Ends the last block and closes the file; the destructor closes silently.
     virtual Status close() = 0;
     // Bytes in the file so far (compressed), the blocks not yet ended excluded.

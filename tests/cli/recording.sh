@@ -30,6 +30,28 @@ grep -q "recorded ${#files[@]} files, the last" "$dir/live.err" || fail "no reco
 diff <(records "$dir/live") <(records "$dir/later") >"$dir/diff" ||
     fail "the files decode otherwise than the live run showed: $(head "$dir/diff")"
 
+# SIGKILL on compressed files: every file decodes, each from its header on, and together
+# they are what the live run showed but for the last block's 2 s (and the frames then
+# still awaiting an answer).
+"$rtuscope" demo --no-color -w "$dir/kill.rtucap.zst" --rotate-seconds 2 >"$dir/kill.live" 2>/dev/null &
+pid=$!
+sleep 5
+kill -KILL "$pid"
+wait "$pid" 2>/dev/null
+zfiles=("$dir"/kill-*.rtucap.zst)
+[ ${#zfiles[@]} -ge 2 ] || fail "${#zfiles[@]} compressed files for 5 s by 2 s"
+for f in "${zfiles[@]}"; do
+    "$rtuscope" decode "$f" >/dev/null 2>"$dir/one.err" || fail "$f alone: $(cat "$dir/one.err")"
+done
+"$rtuscope" decode --no-color "$dir/kill-*.rtucap.zst" >"$dir/kill.later" 2>"$dir/kill.err" ||
+    fail "decode of the killed run's files: $(cat "$dir/kill.err")"
+live_n=$(records "$dir/kill.live" | wc -l)
+later_n=$(records "$dir/kill.later" | wc -l)
+[ "$later_n" -gt 10 ] || fail "only $later_n records decode of a killed run"
+[ "$later_n" -ge $((live_n - 45)) ] || fail "$later_n records decode of $live_n live: more than the last block lost"
+diff <(records "$dir/kill.later" | head -n $((later_n - 2))) <(records "$dir/kill.live" | head -n $((later_n - 2))) \
+    >"$dir/kill.diff" || fail "the killed run's files decode otherwise: $(head "$dir/kill.diff")"
+
 # SIGHUP: a clean stop, the capture ended with its stop line.
 "$rtuscope" demo --no-color -w "$dir/hup.rtucap" >"$dir/hup.out" 2>"$dir/hup.err" &
 pid=$!
