@@ -5,8 +5,11 @@ include(GNUInstallDirs)
 install(TARGETS rtuscope RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
 install(FILES ${PROJECT_SOURCE_DIR}/docs/rtuscope.1 DESTINATION ${CMAKE_INSTALL_MANDIR}/man1)
 install(FILES ${PROJECT_SOURCE_DIR}/README.md ${PROJECT_SOURCE_DIR}/docs/formats.md
-              ${PROJECT_SOURCE_DIR}/docs/profiles.md
+              ${PROJECT_SOURCE_DIR}/docs/profiles.md ${PROJECT_SOURCE_DIR}/docs/long-runs.md
         DESTINATION ${CMAKE_INSTALL_DOCDIR})
+# The systemd unit of docs/long-runs.md, for the administrator to copy and edit.
+install(FILES ${PROJECT_SOURCE_DIR}/contrib/rtuscope-record@.service
+        DESTINATION ${CMAKE_INSTALL_DOCDIR}/contrib)
 install(FILES ${PROJECT_SOURCE_DIR}/profiles/README.md ${RTUSCOPE_BUNDLED_PROFILES}
         DESTINATION ${CMAKE_INSTALL_DOCDIR}/profiles)
 
