@@ -13,6 +13,7 @@
 #include "input/pcap.hpp"
 #include "input/sources.hpp"
 #include "output/pcap_writer.hpp"
+#include "output/pcapng_writer.hpp"
 #include "pcap_builders.hpp"
 #include "support.hpp"
 
@@ -734,6 +735,203 @@ TEST(PcapTshark, AgreesWithRtuscopeOnEveryBundledCaptureAsAPcap) {
     }
     EXPECT_GT(captures, 20U);
     EXPECT_GT(answers_compared, 100U);
+}
+
+}  // namespace
+}  // namespace rtuscope
+
+// --- pcapng writer ----------------------------------------------------------------------
+
+namespace rtuscope {
+namespace {
+
+std::string write_pcapng(const std::string& path, const std::vector<Record>& records,
+                         const SessionInfo& session) {
+    auto sink = make_pcapng_sink(path, "rtuscope 9.9");
+    EXPECT_TRUE(sink.ok()) << sink.error().to_string();
+    if (!sink.ok()) return {};
+    (*sink)->begin(session);
+    for (const Record& r : records) (*sink)->record(r);
+    (*sink)->end({}, {});
+    EXPECT_TRUE((*sink)->status().ok());
+    std::ifstream in(path, std::ios::binary);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    return ss.str();
+}
+
+std::uint32_t le32(const std::string& s, std::size_t at) {
+    std::uint32_t v = 0;
+    for (int i = 3; i >= 0; --i) v = (v << 8) | static_cast<std::uint8_t>(s[at + i]);
+    return v;
+}
+
+std::uint16_t le16(const std::string& s, std::size_t at) {
+    return static_cast<std::uint16_t>(static_cast<std::uint8_t>(s[at]) |
+                                      (static_cast<std::uint8_t>(s[at + 1]) << 8));
+}
+
+struct Block {
+    std::uint32_t type = 0;
+    std::string body;
+    // Options from `at` in the body: code, value (unpadded), every option padded to 4.
+    std::vector<std::pair<std::uint16_t, std::string>> options(std::size_t at) const {
+        std::vector<std::pair<std::uint16_t, std::string>> out;
+        while (at + 4 <= body.size()) {
+            const std::uint16_t code = le16(body, at);
+            const std::uint16_t length = le16(body, at + 2);
+            at += 4;
+            if (code == 0) {
+                EXPECT_EQ(length, 0);
+                EXPECT_EQ(at, body.size()) << "bytes after opt_endofopt";
+                break;
+            }
+            out.emplace_back(code, body.substr(at, length));
+            at += (length + 3U) & ~3U;
+        }
+        return out;
+    }
+};
+
+// The blocks of a file, each checked for its lengths (a multiple of 4, the same at both
+// ends) and that they fill the file.
+std::vector<Block> blocks_of(const std::string& file) {
+    std::vector<Block> out;
+    for (std::size_t at = 0; at < file.size();) {
+        EXPECT_LE(at + 12, file.size());
+        const std::uint32_t length = le32(file, at + 4);
+        EXPECT_EQ(length % 4, 0U);
+        EXPECT_LE(at + length, file.size());
+        if (length % 4 != 0 || at + length > file.size() || length < 12) return out;
+        EXPECT_EQ(le32(file, at + length - 4), length);
+        out.push_back({le32(file, at), file.substr(at + 8, length - 12)});
+        at += length;
+    }
+    return out;
+}
+
+TEST(PcapngWriter, BlocksOptionsAndPaddingAsTheSpecificationLaysThem) {
+    TempDir dir;
+    std::vector<Record> records = sample_records();
+    records[0].answer_number = 2;
+    records[1].request_number = 1;
+    records[1].latency = 11'670'000;
+    records[3].notes.add(note_id::crc_mismatch, "CRC BAD (expected 01 02, got 03 04)");
+    DecodedValue& voltage = records[1].values.add();
+    voltage.name = "voltage";
+    voltage.value = "220.5";
+    voltage.unit = "V";
+    voltage.raw = "0x089D";
+    records[5].frame.channel = "slave";  // a second interface, for the tap's other side
+    SessionInfo session;
+    session.source.name = "line.rtucap";
+    session.line.baud = 19200;
+    session.baud_origin = BaudOrigin::input;
+    const std::string file = write_pcapng(dir.file("a.pcapng"), records, session);
+    const std::vector<Block> blocks = blocks_of(file);
+    ASSERT_EQ(blocks.size(), 1U + 1U + 5U + 1U + 1U);  // SHB, IDB, 5 EPBs, IDB, EPB
+
+    // Section header: little-endian magic, version 1.0, length unknown, the application.
+    EXPECT_EQ(blocks[0].type, 0x0A0D0D0AU);
+    EXPECT_EQ(blocks[0].body.substr(0, 16),
+              std::string("\x4D\x3C\x2B\x1A\x01\x00\x00\x00", 8) + std::string(8, '\xFF'));
+    const auto shb = blocks[0].options(16);
+    ASSERT_EQ(shb.size(), 1U);
+    EXPECT_EQ(shb[0], std::make_pair(std::uint16_t{4}, std::string("rtuscope 9.9")));
+
+    // Interfaces: link type 252, the input and its line, nanoseconds.
+    EXPECT_EQ(blocks[1].type, 1U);
+    EXPECT_EQ(le16(blocks[1].body, 0), 252);
+    const auto idb = blocks[1].options(8);
+    ASSERT_EQ(idb.size(), 3U);
+    EXPECT_EQ(idb[0], std::make_pair(std::uint16_t{2}, std::string("line.rtucap")));
+    EXPECT_EQ(idb[1], std::make_pair(std::uint16_t{3}, std::string("19200 8N1")));
+    EXPECT_EQ(idb[2], std::make_pair(std::uint16_t{9}, std::string("\x09", 1)));
+    EXPECT_EQ(blocks[7].type, 1U);
+    EXPECT_EQ(blocks[7].options(8)[0].second, "line.rtucap@slave");
+
+    // Packets: the pcap writer's payload, the time in ns, the direction, the comment.
+    const std::uint32_t want_interface[] = {0, 0, 0, 0, 0, 1};
+    const std::uint32_t want_flags[] = {2, 1, 1, 2, 2, 1};
+    const char* want_comment[] = {
+        "rtuscope #1 request: answered by #2",
+        "rtuscope #2 response: 11.67 ms after #1\nvoltage = 220.5 V (raw 0x089D)",
+        "rtuscope #3 exception",
+        "rtuscope #4 invalid request\n! frame.crc_mismatch: CRC BAD (expected 01 02, got 03 04)",
+        "rtuscope #5 request",
+        "rtuscope #6 response",
+    };
+    for (std::size_t i = 0; i < 6; ++i) {
+        SCOPED_TRACE("packet " + std::to_string(i + 1));
+        const Block& epb = blocks[i < 5 ? 2 + i : 8];
+        EXPECT_EQ(epb.type, 6U);
+        EXPECT_EQ(le32(epb.body, 0), want_interface[i]);
+        const auto t = static_cast<std::uint64_t>(records[i].frame.start);
+        EXPECT_EQ(le32(epb.body, 4), static_cast<std::uint32_t>(t >> 32U));
+        EXPECT_EQ(le32(epb.body, 8), static_cast<std::uint32_t>(t));
+        std::vector<std::uint8_t> payload;
+        append_pcap_packet(payload, records[i]);
+        ASSERT_EQ(le32(epb.body, 12), payload.size());
+        EXPECT_EQ(le32(epb.body, 16), payload.size());
+        EXPECT_EQ(epb.body.substr(20, payload.size()), std::string(payload.begin(), payload.end()));
+        const std::size_t padded = (payload.size() + 3) & ~std::size_t{3};
+        EXPECT_EQ(epb.body.substr(20 + payload.size(), padded - payload.size()),
+                  std::string(padded - payload.size(), '\0'));
+        const auto options = epb.options(20 + padded);
+        ASSERT_EQ(options.size(), 2U);
+        EXPECT_EQ(options[0].first, 2);  // epb_flags
+        EXPECT_EQ(le32(options[0].second, 0), want_flags[i]);
+        EXPECT_EQ(options[1], std::make_pair(std::uint16_t{1}, std::string(want_comment[i])));
+    }
+}
+
+// Read back by rtuscope's own reader: the flags give the direction (and win over ports
+// that say otherwise, which a closing note tells), rtuscope's own comment is left out
+// (decoding gives it anew) and anyone else's is kept; the line comes from the interface.
+TEST(PcapngWriter, ReadBackKeepsFlagsLineAndOthersComments) {
+    TempDir dir;
+    std::vector<Record> records = sample_records();
+    records[2].frame.comments = {"the vendor's reset"};
+    SessionInfo session;
+    session.line = *parse_line_settings("19200 8E1");
+    session.baud_origin = BaudOrigin::option;
+    std::string file = write_pcapng(dir.file("a.pcapng"), records, session);
+    // Packet 5 (a request, outbound) flagged inbound instead: its ports still say to 502.
+    const std::string outbound("\x02\x00\x04\x00\x02\x00\x00\x00", 8);
+    // The outbound flags of packets 1, 4 and 5.
+    std::size_t at = file.find(outbound);
+    for (int i = 0; i < 2 && at != std::string::npos; ++i) at = file.find(outbound, at + 1);
+    ASSERT_NE(at, std::string::npos);
+    file[at + 4] = '\x01';
+
+    auto source = pcap_source_from_memory(file, "a.pcapng");
+    ASSERT_TRUE(source.ok()) << source.error().to_string();
+    ASSERT_TRUE((*source)->info().line.has_value());
+    EXPECT_EQ((*source)->info().line->baud, 19200U);
+    EXPECT_EQ((*source)->info().line->format(), "8E1");
+    const Drained d = drain(**source);
+    ASSERT_FALSE(d.error) << d.error->to_string();
+    ASSERT_EQ(d.chunks.size(), 6U);
+    const char* want_channel[] = {"master", "slave", "slave", "master", "slave", "slave"};
+    for (std::size_t i = 0; i < 6; ++i) {
+        SCOPED_TRACE("chunk " + std::to_string(i + 1));
+        EXPECT_EQ(d.chunks[i].channel, want_channel[i]);
+        EXPECT_EQ(d.chunks[i].time, records[i].frame.start);
+        EXPECT_EQ(d.chunks[i].comments,
+                  i == 2 ? std::vector<std::string>{"the vendor's reset"}
+                         : std::vector<std::string>{});
+    }
+    ASSERT_EQ(d.remarks.size(), 1U);
+    EXPECT_EQ(d.remarks[0],
+              "1 of 6 packets: their direction flags disagree with their ports; the flags are "
+              "taken");
+}
+
+TEST(PcapngWriter, UnwritablePathIsAnErrorNamingTheFile) {
+    auto sink = make_pcapng_sink("/no/such/dir/out.pcapng", "rtuscope 9.9");
+    ASSERT_FALSE(sink.ok());
+    EXPECT_EQ(sink.error().to_string(),
+              "/no/such/dir/out.pcapng: cannot create the pcapng: No such file or directory");
 }
 
 }  // namespace

@@ -83,6 +83,10 @@ void add_output_options(CLI::App& cmd, OutputArgs& args) {
     cmd.add_option("--pcap", args.pcap_file,
                    "Also write every frame to FILE as pcap (Wireshark: Modbus RTU, link type 252)")
         ->type_name("FILE");
+    cmd.add_option("--pcapng", args.pcapng_file,
+                   "Also write every frame to FILE as pcapng: as --pcap, with the direction as "
+                   "packet flags, the line, and rtuscope's notes, pairing and values as comments")
+        ->type_name("FILE");
     add_line_options(cmd, args);
     add_display_options(cmd, args);
     add_filter_options(cmd, args);
@@ -315,6 +319,12 @@ std::optional<Decoding> prepare_decoding(const OutputArgs& args, int& exit_code,
         d.pcap = pcap->get();
         sinks.push_back(std::move(*pcap));
     }
+    if (!args.pcapng_file.empty()) {
+        auto pcapng = make_pcapng_sink(args.pcapng_file, "rtuscope " RTUSCOPE_VERSION);
+        if (!pcapng) return fail(pcapng.error(), 1);
+        d.pcapng = pcapng->get();
+        sinks.push_back(std::move(*pcapng));
+    }
     d.sink = sinks.size() == 1 ? std::move(sinks.front()) : make_tee_sink(std::move(sinks));
     if (!filter.empty()) d.sink = make_filter_sink(std::move(filter), std::move(d.sink));
     return d;
@@ -331,7 +341,10 @@ Status check_time_bounds(const Decoding& decoding, TimeBase base) {
 }
 
 Status pcap_status(const Decoding& decoding) {
-    return decoding.pcap != nullptr ? decoding.pcap->status() : ok_status();
+    if (decoding.pcap != nullptr) {
+        if (Status s = decoding.pcap->status(); !s) return s;
+    }
+    return decoding.pcapng != nullptr ? decoding.pcapng->status() : ok_status();
 }
 
 LineSettings live_line(const Decoding& decoding) {

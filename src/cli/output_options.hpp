@@ -11,6 +11,7 @@
 #include "bus_options.hpp"
 #include "output/filter.hpp"
 #include "output/pcap_writer.hpp"
+#include "output/pcapng_writer.hpp"
 #include "pipeline.hpp"
 #include "stats/report.hpp"
 
@@ -26,6 +27,7 @@ struct OutputArgs {
     bool closing_stats = false;  // sniff/demo: the statistics on stderr at the end
     std::size_t stats_top = kStatsTop;  // text statistics: rows per table (0: all)
     std::string pcap_file;
+    std::string pcapng_file;
     std::string slaves;
     std::string functions;
     std::string kinds;
@@ -56,6 +58,7 @@ struct Decoding {
     PipelineOptions options;
     std::unique_ptr<RecordSink> sink;
     PcapSink* pcap = nullptr;  // inside `sink`, when --pcap was given
+    PcapngSink* pcapng = nullptr;  // inside `sink`, when --pcapng was given
     // --from and --to as given, to be checked against the input's times once it is open.
     std::optional<TimeBound> from;
     std::optional<TimeBound> to;
@@ -74,7 +77,7 @@ SourceInfo live_capture_header(const Decoding& decoding, const SourceInfo& live)
 // naming the option if not, for exit status 2).
 Status check_time_bounds(const Decoding& decoding, TimeBase base);
 
-// After the run: a --pcap file that could not be written is an error (printed here).
+// After the run: a --pcap or --pcapng file that could not be written is an error.
 Status pcap_status(const Decoding& decoding);
 
 // The line settings for a live port: --baud/--format, else the bus map's, else 9600 8N1.

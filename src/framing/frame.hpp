@@ -52,6 +52,8 @@ struct Frame {
     Notes notes;
     Transport transport = Transport::rtu;
     Mbap mbap{};  // Modbus/TCP only
+    // What a pcapng file says of the frame in comments of its own (Chunk::comments).
+    std::vector<std::string> comments;
 
     [[nodiscard]] bool is_frame() const { return cls != RecordClass::noise; }
     [[nodiscard]] std::uint8_t slave() const { return bytes.empty() ? 0 : bytes[0]; }
@@ -64,6 +66,9 @@ struct Frame {
     void take(Frame& other) {
         bytes.swap(other.bytes);
         notes.swap(other.notes);
+        // Nearly always none: the frame handed on keeps none either.
+        comments.swap(other.comments);
+        other.comments.clear();
         // Nearly always the same channel (none): compared rather than assigned or swapped.
         if (channel != other.channel) channel = other.channel;
         start = other.start;

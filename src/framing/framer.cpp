@@ -822,6 +822,7 @@ void Framer::emit_chunk_as_frame(const Chunk& chunk) {
     after_whole_frame_ = true;
     frame.channel = chunk.channel;
     frame.source_line = chunk.source_line;
+    frame.comments = chunk.comments;
     frame.delimiter = Delimiter::line;
     frame.crc = check_crc(frame.bytes);
     const Reading shape = reading_by_shape(frame.bytes, chunk.time, true, chunk.channel);
@@ -855,6 +856,7 @@ void Framer::emit_modbus_tcp(const Chunk& chunk) {
     frame.silence_before = kNoTime;
     frame.channel = chunk.channel;
     frame.source_line = chunk.source_line;
+    frame.comments = chunk.comments;
     frame.delimiter = Delimiter::line;
     frame.crc = {};  // none: TCP checks its segments
     frame.cls = frame.bytes.size() >= 2 ? RecordClass::frame : RecordClass::invalid;

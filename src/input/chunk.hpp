@@ -54,6 +54,9 @@ struct Chunk {
     // Whole frames: Modbus/TCP (bytes: the unit id and the PDU) or RTU.
     Transport transport = Transport::rtu;
     Mbap mbap{};  // Modbus/TCP only
+    // Whole frames of a pcapng file: its comments on the packet (opt_comment) that rtuscope
+    // did not write itself (output/pcapng_writer.hpp), e.g. added in Wireshark.
+    std::vector<std::string> comments{};
 };
 
 // What a source knows about itself once its header (if any) has been read.

@@ -28,6 +28,9 @@ inline constexpr int kLinktypeRtacSerial = 250;  // LINKTYPE_RTAC_SERIAL
 inline constexpr std::uint16_t kModbusPort = 502;
 // The master's side of the written "connection".
 inline constexpr std::uint16_t kMasterPort = 49152;
+// How the comment rtuscope writes on each frame of a pcapng file begins ("rtuscope #12
+// request: answered by #13"); a reader leaves it out, as decoding gives it anew.
+inline constexpr std::string_view kOwnCommentPrefix = "rtuscope #";
 
 // A source over a pcap or pcapng file. A packet that is exactly one Modbus RTU frame by
 // length and CRC (and every exported PDU) becomes a whole-frame Chunk

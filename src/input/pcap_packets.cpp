@@ -320,6 +320,12 @@ Status PacketChunker::add(const Packet& packet, std::uint64_t number) {
         return ok_status();
     }
     packet_time_ = packet.time;
+    if (e.framed && packet.direction != PacketDirection::unknown) {
+        const std::string_view flagged =
+            packet.direction == PacketDirection::outbound ? "master" : "slave";
+        if (!e.channel.empty() && e.channel != flagged) ++direction_disagreements_;
+        e.channel = flagged;
+    }
     // The bytes of the packet the capture did not keep, past the ones read. Only then do
     // the IP and UDP lengths say more than the bytes hold; otherwise they lie.
     const std::size_t cut =
@@ -342,11 +348,15 @@ Status PacketChunker::add(const Packet& packet, std::uint64_t number) {
         flows_.udp(e.flow, e.bytes, not_captured, packet.time, e.channel);
         return ok_status();
     }
+    // The packet's comments go with the frame it is, not with a stream's bytes.
+    packet_comments_ = packet.comments;
     if (e.modbus_tcp) {
         if (not_captured == 0) modbus_tcp(e.bytes, packet.time, e.time_estimated, e.channel, e.flow);
-        return ok_status();
+    } else {
+        emit(e.bytes, packet.time, e.time_estimated, e.channel, not_captured, e.framed,
+             e.duration);
     }
-    emit(e.bytes, packet.time, e.time_estimated, e.channel, not_captured, e.framed, e.duration);
+    packet_comments_ = {};
     return ok_status();
 }
 
@@ -397,7 +407,14 @@ Chunk& PacketChunker::next_chunk(Nanos& time, bool& time_estimated, std::string_
     out.duration = kNoTime;
     out.transport = Transport::rtu;
     out.mbap = {};
+    out.comments.clear();
     return out;
+}
+
+void PacketChunker::keep_comments(Chunk& out) const {
+    for (const std::string_view comment : packet_comments_) {
+        if (!comment.starts_with(kOwnCommentPrefix)) out.comments.emplace_back(comment);
+    }
 }
 
 void PacketChunker::modbus_tcp(Bytes adu, Nanos time, bool time_estimated,
@@ -414,6 +431,7 @@ void PacketChunker::modbus_tcp(Bytes adu, Nanos time, bool time_estimated,
     const FlowKeyHash hash;
     out.mbap.connection =
         static_cast<std::uint32_t>(hash(flow) ^ hash(reversed)) | 1U;  // never 0
+    keep_comments(out);
 }
 
 void PacketChunker::emit(Bytes bytes, Nanos time, bool time_estimated, std::string_view channel,
@@ -429,6 +447,7 @@ void PacketChunker::emit(Bytes bytes, Nanos time, bool time_estimated, std::stri
     out.packet = !out.whole_frame;
     out.bytes_not_captured = not_captured;
     out.duration = out.whole_frame ? duration : kNoTime;
+    if (out.whole_frame) keep_comments(out);
 }
 
 bool PacketChunker::pop(Chunk& out) {
@@ -502,6 +521,12 @@ std::vector<std::string> PacketChunker::remarks(bool cut_off) const {
             "{} of {} packets {} cut by the capture's snap length: their last bytes are "
             "missing (no error of the bus)",
             cut_by_snaplen_, packets_, cut_by_snaplen_ == 1 ? "was" : "were"));
+    }
+    if (direction_disagreements_ != 0) {
+        out.push_back(fmt::format(
+            "{} of {} packets: their direction flags disagree with their ports; the flags "
+            "are taken",
+            direction_disagreements_, packets_));
     }
     for (std::string& remark : flows_.remarks()) out.push_back(std::move(remark));
     return out;

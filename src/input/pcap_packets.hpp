@@ -5,6 +5,7 @@
 
 #include <cstdint>
 #include <map>
+#include <optional>
 #include <span>
 #include <string>
 #include <string_view>
@@ -20,6 +21,10 @@ namespace rtuscope::pcap {
 
 using Bytes = std::span<const std::uint8_t>;
 
+// pcapng's epb_flags direction. rtuscope writes an exported PDU's as the ports say it:
+// outbound to a slave (a request), inbound from one (an answer).
+enum class PacketDirection : std::uint8_t { unknown, inbound, outbound };
+
 struct Packet {
     // The interface's link type, as libpcap's pcap_datalink gives it (DLT_) or as the
     // file holds it (LINKTYPE_): the two differ only for raw IP, and both are read.
@@ -28,6 +33,10 @@ struct Packet {
     Bytes data;            // the bytes captured, valid until the next packet is read
     // Its length on the wire: more than data.size() when the capture's snap length cut it.
     std::uint32_t length = 0;
+    // pcapng only (rtuscope's own reader): the direction its flags give (epb_flags), and
+    // its comments (opt_comment), valid until the next packet is read.
+    PacketDirection direction = PacketDirection::unknown;
+    std::vector<std::string_view> comments;
 };
 
 // Where packets come from.
@@ -40,6 +49,10 @@ class PacketReader {
     virtual Result<bool> next(Packet& out) = 0;
     // Whether the file ended inside a packet (a capture killed or still being written).
     [[nodiscard]] virtual bool cut_off() const = 0;
+    // The line settings the interfaces described so far give in their descriptions
+    // ("9600 8N1", as rtuscope writes them), when they give one and agree; libpcap tells
+    // none.
+    [[nodiscard]] virtual std::optional<LineSettings> described_line() const { return {}; }
 };
 
 // Whether packets of this link type can carry Modbus (the table in docs/formats.md).
@@ -81,6 +94,9 @@ class PacketChunker final : private IpFlows::Output {
               std::uint32_t not_captured, bool framed, Nanos duration);
     // The next chunk's slot, filled by the caller.
     Chunk& next_chunk(Nanos& time, bool& time_estimated, std::string_view channel);
+    // The comments of the packet being added onto its frame's chunk, but for rtuscope's
+    // own (its decoding of the frame, which decoding it again gives anew).
+    void keep_comments(Chunk& out) const;
     void skip(const std::string& why);
 
     IpFlows flows_;
@@ -108,6 +124,11 @@ class PacketChunker final : private IpFlows::Output {
     std::map<int, std::uint64_t> unsupported_link_types_;
     std::uint64_t unsupported_otherwise_ = 0;
     std::uint64_t cut_by_snaplen_ = 0;  // packets the capture's snap length cut
+    // Exported PDUs whose direction flags say otherwise than their ports (the flags are
+    // taken).
+    std::uint64_t direction_disagreements_ = 0;
+    // The comments of the packet being added, for the chunk of the frame it is.
+    std::span<const std::string_view> packet_comments_;
 };
 
 }  // namespace rtuscope::pcap

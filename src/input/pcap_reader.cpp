@@ -249,6 +249,8 @@ class PcapSource final : public ChunkSource {
         // capture with relative times. The first chunk tells.
         first_ = read_chunk(pending_);
         if (first_ && *first_) info_.time_base = time_base_of(pending_.time);
+        // A pcapng file rtuscope wrote says the line in its interfaces' descriptions.
+        if (reader_) info_.line = reader_->described_line();
     }
 
     [[nodiscard]] const SourceInfo& info() const override { return info_; }
@@ -348,9 +350,38 @@ bool looks_like_pcap(std::string_view head) {
     return false;
 }
 
+namespace {
+
+// Reads from `rest` into `head` what it lacks of a pcapng file's section header block
+// (its first block), and no more: a pipe may be a capture still being written.
+void read_section_header(std::string& head, std::FILE* rest) {
+    constexpr std::size_t kStart = 12;  // type, length, byte-order magic
+    constexpr std::size_t kLongest = std::size_t{64} << 10;
+    const auto read_up_to = [&](std::size_t size) {
+        if (rest == nullptr || head.size() >= size) return;
+        const std::size_t had = head.size();
+        head.resize(size);
+        head.resize(had + std::fread(head.data() + had, 1, size - had, rest));
+    };
+    if (head.size() < 4 && rest != nullptr) read_up_to(4);
+    if (!starts_like_pcapng(head)) return;
+    read_up_to(kStart);
+    if (head.size() < kStart) return;
+    const auto byte = [&](std::size_t i) { return static_cast<std::uint8_t>(head[i]); };
+    const bool big = head.substr(8, 4) == std::string_view("\x1A\x2B\x3C\x4D", 4);
+    const std::uint32_t length =
+        big ? (std::uint32_t{byte(4)} << 24) | (byte(5) << 16) | (byte(6) << 8) | byte(7)
+            : (std::uint32_t{byte(7)} << 24) | (byte(6) << 16) | (byte(5) << 8) | byte(4);
+    if (length <= kLongest) read_up_to(length);
+}
+
+}  // namespace
+
 Result<std::unique_ptr<ChunkSource>> pcap_source_from_stream(std::string head, std::FILE* rest,
                                                              bool close_rest, std::string name,
                                                              const PcapOptions& options) {
+    read_section_header(head, rest);
+    const bool ours = pcap::written_by_rtuscope(head);
     std::unique_ptr<Rereading> rereading;
     // A file of ours whose head was read from its own start (it stands just past the head)
     // and that can go back there is libpcap's to read as it is: through the chain below,
@@ -373,6 +404,15 @@ Result<std::unique_ptr<ChunkSource>> pcap_source_from_stream(std::string head, s
         if (!opened) return opened.error();
         stream = *opened;
         rereading = std::make_unique<Rereading>(std::move(chain));
+    }
+    // A pcapng file rtuscope wrote: its own reader, for the direction flags, comments and
+    // line settings libpcap does not give.
+    if (ours) {
+        rereading.reset();
+        Result<std::unique_ptr<PcapngReader>> own = open_own_reader(stream);
+        if (!own) return Error{own.error().message, name};
+        return std::unique_ptr<ChunkSource>(
+            std::make_unique<PcapSource>(std::move(*own), nullptr, std::move(name), options));
     }
     // libpcap reads each packet with two small freads: with stdio's own 4 KiB buffer, a
     // read() every ~60 packets of ours. Set before libpcap's first read; the file taken

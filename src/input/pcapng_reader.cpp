@@ -11,6 +11,8 @@
 //   PB 2:            interface (2)  drops (2)  time high (4)  time low (4)  captured (4)
 //                    length (4)  data, padded to 4  options
 //   option:          code (2)  length (2)  value, padded to 4; code 0 ends them
+//   kept:  shb_userappl 4 (SHB), if_description 3 and if_tsresol 9 and if_tsoffset 14
+//          (IDB), opt_comment 1 and epb_flags 2 (EPB, PB; bits 0-1: 1 inbound, 2 outbound)
 #include "input/pcapng_reader.hpp"
 
 #include <fmt/format.h>
@@ -29,6 +31,10 @@ constexpr std::uint32_t kSimplePacket = 3;
 constexpr std::uint32_t kEnhancedPacket = 6;
 constexpr std::uint32_t kByteOrderMagic = 0x1A2B3C4D;
 constexpr std::uint16_t kOptionEnd = 0;
+constexpr std::uint16_t kOptionComment = 1;
+constexpr std::uint16_t kOptionFlags = 2;        // epb_flags, pack_flags
+constexpr std::uint16_t kOptionDescription = 3;  // if_description
+constexpr std::uint16_t kOptionUserAppl = 4;     // shb_userappl
 constexpr std::uint16_t kOptionTsResolution = 9;
 constexpr std::uint16_t kOptionTsOffset = 14;
 constexpr std::size_t kHeaderBytes = 8;    // type and total length
@@ -77,6 +83,36 @@ bool to_nanos(std::uint64_t units, std::uint8_t n, bool binary, std::int64_t off
 }
 
 }  // namespace
+
+bool written_by_rtuscope(std::string_view head) {
+    const auto byte = [&](std::size_t i) { return static_cast<std::uint8_t>(head[i]); };
+    if (head.size() < 28 || head.substr(0, 4) != std::string_view("\x0A\x0D\x0D\x0A", 4)) {
+        return false;
+    }
+    const bool big = head.substr(8, 4) == std::string_view("\x1A\x2B\x3C\x4D", 4);
+    if (!big && head.substr(8, 4) != std::string_view("\x4D\x3C\x2B\x1A", 4)) return false;
+    const auto u16 = [&](std::size_t at) {
+        return static_cast<std::uint16_t>(big ? (byte(at) << 8) | byte(at + 1)
+                                              : (byte(at + 1) << 8) | byte(at));
+    };
+    const auto u32 = [&](std::size_t at) {
+        const std::uint32_t a = u16(at);
+        const std::uint32_t b = u16(at + 2);
+        return big ? (a << 16) | b : (b << 16) | a;
+    };
+    const std::size_t length = u32(4);
+    if (length < 28 || length > head.size()) return false;
+    const std::size_t end = length - 4;
+    for (std::size_t at = 24; at + 4 <= end;) {
+        const std::uint16_t code = u16(at);
+        const std::size_t size = u16(at + 2);
+        at += 4;
+        if (code == kOptionEnd || size > end - at) return false;
+        if (code == kOptionUserAppl) return head.substr(at, size).starts_with("rtuscope ");
+        at += (size + 3) & ~std::size_t{3};
+    }
+    return false;
+}
 
 PcapngReader::PcapngReader(std::FILE* file)
     : file_(file), stdio_buffer_(give_stdio_buffer(file)) {}
@@ -187,6 +223,8 @@ Status PcapngReader::read_interface() {
         if (code == kOptionTsResolution && length >= 1) {
             interface.binary = (block_[at] & 0x80U) != 0;
             interface.resolution = static_cast<std::uint8_t>(block_[at] & 0x7FU);
+        } else if (code == kOptionDescription) {
+            interface.description.assign(reinterpret_cast<const char*>(&block_[at]), length);
         } else if (code == kOptionTsOffset && length == 8) {
             const std::uint64_t high = u32(at);
             const std::uint64_t low = u32(at + 4);
@@ -196,6 +234,49 @@ Status PcapngReader::read_interface() {
         at += (length + 3) & ~std::size_t{3};
     }
     interfaces_.push_back(interface);
+    return ok_status();
+}
+
+std::optional<LineSettings> PcapngReader::described_line() const {
+    std::optional<LineSettings> line;
+    for (const Interface& interface : interfaces_) {
+        if (interface.description.empty()) continue;
+        auto described = parse_line_settings(interface.description);
+        if (!described) return {};  // a description of something else
+        if (line && (line->baud != described->baud || line->format() != described->format())) {
+            return {};
+        }
+        line = *described;
+    }
+    return line;
+}
+
+Status PcapngReader::read_packet_options(std::size_t at, Packet& out) const {
+    const std::size_t end = block_.size() - 4;
+    while (at + 4 <= end) {
+        const std::uint16_t code = u16(at);
+        const std::size_t length = u16(at + 2);
+        at += 4;
+        if (code == kOptionEnd) break;
+        if (length > end - at) {
+            return error(fmt::format("packet {}: an option runs past its block", packets_));
+        }
+        if (code == kOptionFlags && length == 4) {
+            switch (u32(at) & 3U) {
+                case 1:
+                    out.direction = PacketDirection::inbound;
+                    break;
+                case 2:
+                    out.direction = PacketDirection::outbound;
+                    break;
+                default:
+                    break;
+            }
+        } else if (code == kOptionComment) {
+            out.comments.emplace_back(reinterpret_cast<const char*>(&block_[at]), length);
+        }
+        at += (length + 3) & ~std::size_t{3};
+    }
     return ok_status();
 }
 
@@ -247,6 +328,12 @@ Result<bool> PcapngReader::read_packet(Packet& out) {
     out.link_type = described.link_type;
     out.data = std::span<const std::uint8_t>(block_).subspan(data_at, captured);
     out.length = std::max(length, captured);
+    out.direction = PacketDirection::unknown;
+    out.comments.clear();
+    if (block_type_ != kSimplePacket) {
+        const std::size_t options_at = data_at + ((std::size_t{captured} + 3) & ~std::size_t{3});
+        if (Status read = read_packet_options(options_at, out); !read) return read.error();
+    }
     out.time = kNoTime;
     if (timed && !to_nanos(units, described.resolution, described.binary,
                            described.offset_seconds, out.time)) {

@@ -6,10 +6,16 @@
 // number of sections, the interface's time unit (if_tsresol) and offset (if_tsoffset).
 // Every length is checked against the block it is in; it holds one block at a time (at
 // most kMaxBlockBytes) and at most kMaxInterfaces interfaces a section.
+// The options kept: an interface's time unit and offset and its description
+// (if_description, which rtuscope writes as the line settings: described_line()); a packet
+// block's direction flags and comments (Packet::direction, Packet::comments).
 #pragma once
 
 #include <cstdio>
 #include <memory>
+#include <optional>
+#include <string>
+#include <string_view>
 
 #include "input/pcap_packets.hpp"
 #include "util/result.hpp"
@@ -18,6 +24,12 @@ namespace rtuscope::pcap {
 
 inline constexpr std::size_t kMaxBlockBytes = std::size_t{16} << 20;  // as libpcap's bound
 inline constexpr std::size_t kMaxInterfaces = std::size_t{1} << 16;
+
+// Whether `head` starts with a pcapng section header block whose writing application
+// (shb_userappl) is rtuscope: such a file is read by this reader, which gives its packets'
+// direction flags and comments and its interfaces' line settings, where libpcap gives
+// none.
+bool written_by_rtuscope(std::string_view head);
 
 class PcapngReader final : public PacketReader {
   public:
@@ -34,6 +46,7 @@ class PcapngReader final : public PacketReader {
     [[nodiscard]] bool cut_off() const override { return cut_off_; }
     // The link types of the interfaces described so far.
     [[nodiscard]] std::vector<int> link_types() const;
+    [[nodiscard]] std::optional<LineSettings> described_line() const override;
 
   private:
     struct Interface {
@@ -43,6 +56,7 @@ class PcapngReader final : public PacketReader {
         std::uint8_t resolution = 6;
         bool binary = false;
         std::int64_t offset_seconds = 0;  // if_tsoffset
+        std::string description;          // if_description
     };
     // The next block into block_; false at the end of the file (cut_off_ when it ends
     // inside one).
@@ -51,6 +65,8 @@ class PcapngReader final : public PacketReader {
     Status read_interface();
     // The packet in block_, if it is a packet block: true when `out` holds one.
     Result<bool> read_packet(Packet& out);
+    // The options of a packet block from `at`: its direction flags and comments.
+    Status read_packet_options(std::size_t at, Packet& out) const;
     [[nodiscard]] std::uint16_t u16(std::size_t at) const;
     [[nodiscard]] std::uint32_t u32(std::size_t at) const;
     Error error(const std::string& what) const;

@@ -61,16 +61,16 @@ void put_u32_tag(std::vector<std::uint8_t>& out, std::uint16_t tag, std::uint32_
     put32be(out, v);
 }
 
-enum class Direction : std::uint8_t { to_slave, from_slave, unclear };
+}  // namespace
 
-Direction direction_of(const Record& record) {
+FrameDirection direction_of(const Record& record) {
     switch (record.kind) {
         case Kind::request:
         case Kind::broadcast:
-            return Direction::to_slave;
+            return FrameDirection::to_slave;
         case Kind::response:
         case Kind::exception:
-            return Direction::from_slave;
+            return FrameDirection::from_slave;
         case Kind::unknown:
         case Kind::invalid:
         case Kind::noise:
@@ -78,31 +78,32 @@ Direction direction_of(const Record& record) {
     }
     switch (record.frame.reading) {
         case Reading::request:
-            return Direction::to_slave;
+            return FrameDirection::to_slave;
         case Reading::response:
         case Reading::exception:
-            return Direction::from_slave;
+            return FrameDirection::from_slave;
         case Reading::unknown:
             break;
     }
     // A two-port tap still says which side sent it.
     if (!record.frame.channel.empty()) {
-        return record.frame.channel == "master" ? Direction::to_slave : Direction::from_slave;
+        return record.frame.channel == "master" ? FrameDirection::to_slave : FrameDirection::from_slave;
     }
-    return Direction::unclear;
+    return FrameDirection::unclear;
 }
 
-// Packet time in ns: the frame's start, as Wireshark users compare frame starts (the
-// reader knows and puts the frame back where it was). Untimed frames get their record
-// number in microseconds, so that Wireshark keeps their order and shows a plausible (fake)
-// spacing.
 Nanos packet_time(const Record& record) {
     if (has_time(record.frame.start)) return record.frame.start;
     if (has_time(record.frame.end)) return record.frame.end;
     return static_cast<Nanos>(record.number) * 1000;
 }
 
-}  // namespace
+bool is_written(const Record& record) {
+    // Frames only: noise is none, nor the part of one a stop or a capture's snap length
+    // cut off.
+    return record.kind != Kind::noise && record.frame.is_frame() &&
+           !record.notes.has(note_id::cut_by_stop) && !record.notes.has(note_id::cut_by_snaplen);
+}
 
 void append_pcap_packet(std::vector<std::uint8_t>& out, const Record& record) {
     // Modbus RTU for Wireshark's mbrtu dissector; Modbus/TCP, its MBAP header put back in
@@ -121,13 +122,13 @@ void append_pcap_packet(std::vector<std::uint8_t>& out, const Record& record) {
     std::uint16_t src = client;
     std::uint16_t dst = client;
     switch (direction_of(record)) {
-        case Direction::to_slave:
+        case FrameDirection::to_slave:
             dst = kModbusPort;
             break;
-        case Direction::from_slave:
+        case FrameDirection::from_slave:
             src = kModbusPort;
             break;
-        case Direction::unclear:
+        case FrameDirection::unclear:
             break;
     }
     put_u32_tag(out, kTagPortType, kPortTypeTcp);
@@ -174,12 +175,7 @@ void PcapSink::write(const void* data, std::size_t size) {
 void PcapSink::begin(const SessionInfo& /*session*/) {}
 
 void PcapSink::record(const Record& record) {
-    // Frames only: noise is none, nor the part of one a stop or a capture's snap length
-    // cut off.
-    if (record.kind == Kind::noise || !record.frame.is_frame() ||
-        record.notes.has(note_id::cut_by_stop) || record.notes.has(note_id::cut_by_snaplen)) {
-        return;
-    }
+    if (!is_written(record)) return;
     packet_.clear();
     append_pcap_packet(packet_, record);
     const Nanos t = std::max<Nanos>(0, packet_time(record));  // pcap has no negative times

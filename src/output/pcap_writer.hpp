@@ -75,4 +75,18 @@ Result<std::unique_ptr<PcapSink>> make_pcap_sink(const std::string& path);
 // Appends the exported-PDU packet (tags and frame) written for one record to `out`.
 void append_pcap_packet(std::vector<std::uint8_t>& out, const Record& record);
 
+// What the pcap and pcapng files hold, alike:
+// Whether the record is written: frames only, invalid ones included; not noise, nor the
+// part of a frame a stop or a capture's snap length cut off.
+bool is_written(const Record& record);
+// Which way the frame went: its kind, else its reading, else its tap channel ("master"
+// is the master's side). The port tags and pcapng's direction flags say it.
+enum class FrameDirection : std::uint8_t { to_slave, from_slave, unclear };
+FrameDirection direction_of(const Record& record);
+// The packet's time in ns: the frame's start, as Wireshark users compare frame starts (the
+// reader knows and puts the frame back where it was). Untimed frames get their record
+// number in microseconds, so that Wireshark keeps their order and shows a plausible (fake)
+// spacing.
+Nanos packet_time(const Record& record);
+
 }  // namespace rtuscope

@@ -10,6 +10,7 @@
 
 #include "output/block_output.hpp"
 #include "output/fields.hpp"
+#include "output/record_text.hpp"
 #include "output/sinks.hpp"
 #include "util/terminal.hpp"
 #include "util/text.hpp"
@@ -149,17 +150,7 @@ class TextSink final : public RecordSink {
             line += "  tid "sv;
             append_uint(line, r.frame.mbap.transaction);
         }
-        if (has_time(r.latency)) {
-            append_with(line, kMaxMillisChars + kMaxUintChars + 16, [&](char* p) {
-                p = write_text(p, "  ");
-                p = write_millis(p, r.latency, 2);
-                p = write_text(p, " ms after #");
-                return write_uint(p, r.request_number);
-            });
-        } else if (r.request_number != 0) {
-            line += "  answers #"sv;
-            append_uint(line, r.request_number);
-        }
+        append_pairing(line, r, "  "sv);
         const std::size_t notes_at = line.size();
         append_notes(line, r.notes);
         // Trailing spaces come from padding a short last column.
@@ -182,6 +173,7 @@ class TextSink final : public RecordSink {
                 append_packed_values(line, r.values);
             }
         }
+        append_comment_lines(line, r.frame.comments);
         out_.record_done();
         if (has_time(r.frame.start)) previous_ = r.frame.start;
     }
@@ -250,46 +242,6 @@ class TextSink final : public RecordSink {
         return digits;
     }
 
-    // The registers from values[i] on that the profile does not list, as one run:
-    // devices often fill unused ranges with zeros. Returns the end of the run.
-    static std::size_t append_unlisted_run(std::string& out, std::span<const DecodedValue> values,
-                                           std::size_t i) {
-        std::size_t end = i;
-        bool all_zero = true;
-        while (end < values.size() && values[end].name.empty()) {
-            all_zero = all_zero && values[end].value == "0";
-            ++end;
-        }
-        const std::size_t n = end - i;
-        append_hex4(out, values[i].address);
-        if (n > 1) {
-            out += ".."sv;
-            append_hex4(out, values[end - 1].address);
-        }
-        out += " not in the profile: "sv;
-        if (all_zero && n > 1) {
-            append_uint(out, n);
-            out += " registers, all 0"sv;
-        } else {
-            for (std::size_t k = i; k < end; ++k) {
-                if (k > i) out += ' ';
-                out += values[k].raw;
-            }
-        }
-        return end;
-    }
-
-    // "voltage = 220.5 V", its notes after it.
-    void append_value(std::string& out, const DecodedValue& v, std::size_t name_width) {
-        append_padded(out, v.name, name_width, false);
-        out += " = "sv;
-        out += v.value.empty() ? "?"sv : std::string_view(v.value);
-        if (!v.unit.empty() && !v.value.empty()) {
-            out += ' ';
-            out += v.unit;
-        }
-    }
-
     // One line per value under its frame, with its raw registers: the layout for pipes
     // and files, one value a line for grep and diff.
     void append_values(std::string& out, std::span<const DecodedValue> values) {
@@ -343,6 +295,22 @@ class TextSink final : public RecordSink {
             }
         }
         if (!values.empty()) out += '\n';
+    }
+
+    // The comments a pcapng file holds for the frame (someone's in Wireshark), a line for
+    // each of their lines under it, whole: what someone wrote is not cut.
+    void append_comment_lines(std::string& out, std::span<const std::string> comments) {
+        for (const std::string& comment : comments) {
+            std::string_view rest = comment;
+            while (!rest.empty()) {
+                const std::size_t eol = std::min(rest.find('\n'), rest.size());
+                out += indent_;
+                out += "# "sv;
+                out += rest.substr(0, eol);
+                out += '\n';
+                rest.remove_prefix(std::min(eol + 1, rest.size()));
+            }
+        }
     }
 
     // The frame's bytes under it, wrapped at the width.
@@ -484,10 +452,7 @@ class TextSink final : public RecordSink {
     void append_notes(std::string& out, std::span<const Note> notes) {
         if (notes.empty()) return;
         notes_text_ = "! ";
-        for (std::size_t i = 0; i < notes.size(); ++i) {
-            if (i > 0) notes_text_ += "; "sv;
-            notes_text_ += notes[i].text;
-        }
+        append_note_texts(notes_text_, notes);
         out += "  "sv;
         append_painted(out, notes_text_, fmt::terminal_color::yellow);
     }

@@ -38,6 +38,7 @@ void Record::clear() {
     number = 0;
     kind = Kind::noise;
     request_number = 0;
+    answer_number = 0;
     awaits_answer = false;
     latency = kNoTime;
     request.clear();
@@ -137,8 +138,9 @@ void Transactions::push_modbus_tcp(Record& record) {
     } else if (is_answer) {
         record.kind = (f.function() & 0x80U) != 0 ? Kind::exception : Kind::response;
         if (awaited != tcp_awaiting_.end()) {
-            const Record& request = held(awaited->index);
+            Record& request = held(awaited->index);
             record.request_number = request.number;
+            request.answer_number = record.number;
             record.request = request.frame.bytes;
             if (has_time(f.start) && has_time(awaited->end)) record.latency = f.start - awaited->end;
             if (request.frame.slave() != f.slave() ||
@@ -254,6 +256,7 @@ void Transactions::push(Frame& frame) {
         if (matches_awaited) {
             Record& request = held(*awaiting_);
             record.request_number = request.number;
+            request.answer_number = record.number;
             record.request = request.frame.bytes;
             // Inside a chunk the answer's start is a guess: no turnaround then.
             if (has_time(f.silence_before) && has_time(request.frame.end)) {

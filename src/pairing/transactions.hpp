@@ -39,6 +39,7 @@ struct Record {
     Kind kind = Kind::noise;
     std::uint64_t request_number = 0;   // answers: the request they answer; 0 if none
     Nanos latency = kNoTime;            // answers: end of request to start of answer
+    std::uint64_t answer_number = 0;    // requests: the answer that answers them; 0 if none
     // Requests: it waited for an answer (not a broadcast, nor a function never answered),
     // so it has one outcome: an answer, an exception, a broken answer or none.
     bool awaits_answer = false;
