@@ -22,6 +22,7 @@
 #include "input/sources.hpp"
 #include "output/pcap_writer.hpp"
 #include "output/sinks.hpp"
+#include "output/trigger.hpp"
 #include "pipeline.hpp"
 #include "state/bus_state.hpp"
 #include "stats/report.hpp"
@@ -255,6 +256,28 @@ TEST(Allocations, NonePerFrameKeepingTheBusState) {
         };
         return std::make_unique<StateSink>();
     });
+}
+
+// Triggers run on every record of a live line: matching one parses and allocates
+// nothing, whichever terms it has and whether it fires or not.
+TEST(Allocations, NonePerFrameMatchingTriggers) {
+    std::uint64_t events = 0;
+    expect_no_allocation_per_frame_into([&](FILE* f) {
+        Bus bus;
+        EXPECT_TRUE(test::assign_seed_devices(bus));
+        std::vector<Trigger> triggers;
+        for (const char* expr :
+             {"slave=9,kind=exception", "function=16,crc=bad,swapped", "uv_intensity=1,2,3",
+              "voltage>1000", "flag=txn.no_answer,value.out_of_range", "relay1=on"}) {
+            auto trigger = parse_trigger(expr, trigger_context(&bus));
+            EXPECT_TRUE(trigger) << expr;
+            if (trigger) triggers.push_back(*trigger);
+        }
+        return make_trigger_sink(
+            std::move(triggers), [&](const Record& /*r*/, std::size_t /*i*/) { ++events; },
+            make_csv_sink(f));
+    });
+    EXPECT_GT(events, 0U);
 }
 
 // Each packet record is built in the same room.
