@@ -17,6 +17,7 @@
 #include "input/capture_writer.hpp"
 #include "recording/recorder.hpp"
 #include "input/tty.hpp"
+#include "output/trigger.hpp"
 #include "stats/health.hpp"
 #include "util/output_file.hpp"
 #include "output_options.hpp"
@@ -53,6 +54,22 @@ void add_recording_options(CLI::App& cmd, LiveArgs& args) {
                    "Keep only the newest N -w files, removing older ones (a ring)")
         ->type_name("N")
         ->check(CLI::PositiveNumber);
+    cmd.add_option("--trigger", args.triggers,
+                   "With -w, write only windows around the records EXPR picks (repeatable: any "
+                   "one fires), e.g. flag=txn.no_answer, 'slave=3,crc=bad', 'voltage>250'")
+        ->type_name("EXPR");
+    cmd.add_option("--pre", args.pre_seconds,
+                   "Seconds of the line before an event that its window holds (default 10)")
+        ->type_name("S")
+        ->check(CLI::NonNegativeNumber);
+    cmd.add_option("--pre-bytes", args.pre_megabytes,
+                   "At most this many MB of the line held in memory for --pre (default 64)")
+        ->type_name("MB")
+        ->check(CLI::PositiveNumber);
+    cmd.add_option("--post", args.post_seconds,
+                   "Seconds after the last event that its window holds (default 10)")
+        ->type_name("S")
+        ->check(CLI::NonNegativeNumber);
     cmd.add_option("--seconds", args.seconds, "Stop after this many seconds (default: Ctrl-C)")
         ->check(CLI::PositiveNumber);
     cmd.add_flag("--syslog", args.syslog,
@@ -65,8 +82,20 @@ void add_recording_options(CLI::App& cmd, LiveArgs& args) {
 
 namespace {
 
-RecordingOptions recording_options(const LiveArgs& args) {
+RecordingOptions recording_options(const LiveArgs& args, const Decoding& decoding) {
     RecordingOptions options;
+    if (!args.triggers.empty()) {
+        TriggerWindows windows;
+        if (args.pre_seconds) windows.pre = static_cast<Nanos>(std::llround(*args.pre_seconds * 1e9));
+        if (args.post_seconds) windows.post = static_cast<Nanos>(std::llround(*args.post_seconds * 1e9));
+        if (args.pre_megabytes) {
+            windows.pre_bytes = static_cast<std::size_t>(std::llround(*args.pre_megabytes * 1e6));
+        }
+        // A request's record is decided when its answer comes or the timeout passes,
+        // and the line's silence after it ends the frame.
+        windows.decision_delay = decoding.options.timeout + kNanosPerSecond;
+        options.windows = windows;
+    }
     options.path = args.write_file;
     options.file.compression = compression_for(args.write_file);
     options.rotation.max_bytes = static_cast<std::uint64_t>(std::llround(args.rotate_megabytes * 1e6));
@@ -114,6 +143,12 @@ Status check_recording_options(const LiveArgs& args) {
         (args.rotate_megabytes > 0 || args.rotate_seconds > 0 || args.rotate_files > 0)) {
         return Error{"--rotate-size, --rotate-seconds and --rotate-files need -w FILE"};
     }
+    if (args.write_file.empty() && !args.triggers.empty()) {
+        return Error{"--trigger needs -w FILE: the windows around events are written there"};
+    }
+    if (args.triggers.empty() && (args.pre_seconds || args.pre_megabytes || args.post_seconds)) {
+        return Error{"--pre, --pre-bytes and --post need --trigger"};
+    }
     return ok_status();
 }
 
@@ -137,6 +172,12 @@ std::optional<int> detect_if_asked(const LiveArgs& args, Decoding& decoding,
 }
 
 int run_live(const LiveArgs& args, Decoding& decoding, TtyOptions tty) {
+    std::vector<Trigger> triggers;
+    for (const std::string& expression : args.triggers) {
+        auto parsed = parse_trigger(expression, trigger_context(decoding.bus.get()));
+        if (!parsed) return print_error(Error{"--trigger: " + parsed.error().message}), 2;
+        triggers.push_back(std::move(*parsed));
+    }
     tty.line = live_line(decoding);
     tty.stop = &g_stop;
     tty.reopen = args.reopen;
@@ -152,7 +193,7 @@ int run_live(const LiveArgs& args, Decoding& decoding, TtyOptions tty) {
     std::shared_ptr<Recorder> recorder;
     if (!args.write_file.empty()) {
         recorder = std::make_shared<Recorder>(
-            recording_options(args), capture_header(live_capture_header(decoding, input->info())));
+            recording_options(args, decoding), capture_header(live_capture_header(decoding, input->info())));
         if (Status s = recorder->open(clock_ns(CLOCK_REALTIME)); !s) return print_error(s.error()), 1;
         input = record_chunks(std::move(input), recorder);
         if (args.on_recording) {
@@ -160,6 +201,15 @@ int run_live(const LiveArgs& args, Decoding& decoding, TtyOptions tty) {
                 return recording_text(recorder->counts(), recorder->triggered());
             });
         }
+    }
+    if (recorder && !triggers.empty()) {
+        // Ahead of the output's filters: an event is one whether it is shown or not.
+        auto on_event = [recorder, &triggers](const Record& record, std::size_t index) {
+            recorder->event(record.frame.start, record.frame.end,
+                            fmt::format("record {} fired {}", record.number,
+                                        triggers[index].expression));
+        };
+        decoding.sink = make_trigger_sink(triggers, on_event, std::move(decoding.sink));
     }
     decoding.sink = make_health_sink(health_options(args, recorder), std::move(decoding.sink));
     decoding.options.live = true;

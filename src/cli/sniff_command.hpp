@@ -29,6 +29,10 @@ struct LiveArgs {
     double rotate_megabytes = 0;  // --rotate-size
     double rotate_seconds = 0;    // --rotate-seconds
     std::size_t rotate_files = 0;  // --rotate-files
+    std::vector<std::string> triggers;  // --trigger: -w keeps only windows around events
+    std::optional<double> pre_seconds;    // --pre (default 10)
+    std::optional<double> pre_megabytes;  // --pre-bytes, in MB (default 64)
+    std::optional<double> post_seconds;   // --post (default 10)
     double seconds = 0;  // 0: until stopped
     bool reopen = false;  // --reopen: wait for a port that went away
     bool syslog = false;  // --syslog: the daily health line to syslog, not stderr

@@ -63,6 +63,25 @@ grep -q '^rtuscope: [0-9]* frames' "$dir/hup.err" || fail "no summary after SIGH
 [ "$(tail -1 "$dir/hup.rtucap")" = "# stopped (the live run ended here)" ] ||
     fail "the capture does not end with the stop after SIGHUP"
 
+# Triggers: only windows around the master's writes to slave 3, each a file that decodes
+# alone and holds its events; the summary counts them.
+"$rtuscope" demo --no-color --seconds 6 -w "$dir/win.rtucap" --trigger 'slave=3,function=6' \
+    --pre 0.5 --post 0.5 >"$dir/win.live" 2>"$dir/win.err" || fail "demo with a trigger: $(cat "$dir/win.err")"
+wfiles=("$dir"/win-*.rtucap)
+[ -e "${wfiles[0]}" ] || fail "no window written: $(cat "$dir/win.err")"
+events=$(cat "${wfiles[@]}" | grep -c '^# event: record [0-9]* fired slave=3,function=6$')
+grep -q "; $events trigger events, ${#wfiles[@]} windows\?$" "$dir/win.err" ||
+    fail "summary does not count $events events in ${#wfiles[@]} windows: $(tail -1 "$dir/win.err")"
+for f in "${wfiles[@]}"; do
+    "$rtuscope" decode --no-color "$f" >"$dir/w.out" 2>"$dir/w.err" || fail "$f: $(cat "$dir/w.err")"
+    grep -qE '^ *[0-9]+ [0-9:.]+ +3 ▶ Write Single Register' "$dir/w.out" || fail "$f holds no write to slave 3"
+done
+rc=0; "$rtuscope" demo --seconds 1 -w "$dir/x.rtucap" --trigger 'slvae=3' >/dev/null 2>"$dir/opt.err" || rc=$?
+[ "$rc" -eq 2 ] || fail "a mistyped trigger: exit $rc"
+grep -q 'column 1: unknown term "slvae" (did you mean slave?)' "$dir/opt.err" || fail "$(cat "$dir/opt.err")"
+rc=0; "$rtuscope" demo --seconds 1 --trigger 'slave=3' >/dev/null 2>"$dir/opt.err" || rc=$?
+[ "$rc" -eq 2 ] || fail "--trigger without -w: exit $rc"
+
 # Rotation needs a file to rotate.
 rc=0; "$rtuscope" demo --seconds 1 --rotate-seconds 60 >/dev/null 2>"$dir/opt.err" || rc=$?
 [ "$rc" -eq 2 ] || fail "--rotate-seconds without -w: exit $rc"
