@@ -54,6 +54,9 @@ std::string CaptureFiles::unused_name(Nanos time) {
 }
 
 Status CaptureFiles::start(Nanos time) {
+    // A new file is what SIGUSR1 asks for: one that starts for another reason (a trigger
+    // window) answers it too.
+    if (rotation_.rotate_now != nullptr) rotation_.rotate_now->store(false);
     const std::string name = unused_name(time);
     if (file_) {
         if (Status s = file_->write(fmt::format("# continued in {}\n", name)); !s) return s;
