@@ -16,25 +16,10 @@
 #include "output/block_output.hpp"
 #include "profiles_command.hpp"
 #include "sniff_command.hpp"
+#include "util/near_names.hpp"
 #include "watch_command.hpp"
 
 namespace {
-
-// Edits (insertions, deletions, substitutions) from `a` to `b`, for suggesting a command.
-std::size_t edit_distance(std::string_view a, std::string_view b) {
-    std::vector<std::size_t> row(b.size() + 1);
-    for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
-    for (std::size_t i = 1; i <= a.size(); ++i) {
-        std::size_t diagonal = row[0];
-        row[0] = i;
-        for (std::size_t j = 1; j <= b.size(); ++j) {
-            const std::size_t above = row[j];
-            row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] != b[j - 1])});
-            diagonal = above;
-        }
-    }
-    return row[b.size()];
-}
 
 // The command the arguments reached: rtuscope itself, or a command, or `profiles show`.
 CLI::App* reached(CLI::App& app) {
@@ -79,7 +64,7 @@ int bad_options(CLI::App& app, const CLI::ParseError& e) {
         std::size_t best = 3;  // at most 2 edits away, or a prefix
         for (const CLI::App* c : commands) {
             const std::size_t d =
-                c->get_name().rfind(typed, 0) == 0 ? 0 : edit_distance(typed, c->get_name());
+                c->get_name().rfind(typed, 0) == 0 ? 0 : rtuscope::edit_distance(typed, c->get_name());
             if (d < best) {
                 best = d;
                 nearest = c;
