@@ -26,8 +26,8 @@ std::string stamped_name(std::string_view path, Nanos time) {
     return name;
 }
 
-CaptureFiles::CaptureFiles(std::string path, std::string header, RotationOptions rotation,
-                           OutputFileOptions file)
+CaptureFiles::CaptureFiles(std::string path, std::string header, const RotationOptions& rotation,
+                           const OutputFileOptions& file)
     : path_(std::move(path)),
       header_(std::move(header)),
       rotation_(rotation),
@@ -37,7 +37,7 @@ CaptureFiles::~CaptureFiles() = default;
 
 std::string CaptureFiles::unused_name(Nanos time) {
     if (!rotation_.stamps()) return path_;
-    const std::string name = stamped_name(path_, time);
+    std::string name = stamped_name(path_, time);
     const auto used = [&](const std::string& candidate) {
         return candidate == current_ || std::find(kept_.begin(), kept_.end(), candidate) != kept_.end();
     };

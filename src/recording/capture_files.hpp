@@ -50,8 +50,8 @@ std::string stamped_name(std::string_view path, Nanos time);
 class CaptureFiles {
   public:
     // `header`: the capture header every file starts with (capture_header()).
-    CaptureFiles(std::string path, std::string header, RotationOptions rotation,
-                 OutputFileOptions file);
+    CaptureFiles(std::string path, std::string header, const RotationOptions& rotation,
+                 const OutputFileOptions& file);
     ~CaptureFiles();
     CaptureFiles(const CaptureFiles&) = delete;
     CaptureFiles& operator=(const CaptureFiles&) = delete;
