@@ -43,7 +43,7 @@ pty=$(head -1 "$work/feed")
 [ -n "$pty" ] || fail "the pseudo-terminal did not open"
 
 mkdir "$work/ring"
-devices=(--device 1=zb-uvi485 --device 2=sensor-analyser --device 3=pdu485 --device 4=zyi-relay)
+devices=(--device "1=zb-uvi485" --device "2=sensor-analyser" --device "3=pdu485" --device "4=zyi-relay")
 "$dir/rtuscope" sniff "$pty" --baud 115200 --csv "${devices[@]}" \
     -w "$work/ring/bus.rtucap" --rotate-size "$rotate_mb" --rotate-files 4 \
     >/dev/null 2>"$work/sniff.err" &
