@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <array>
+#include <charconv>
 #include <cmath>
 
 #include "decode/pdu_decoders.hpp"
@@ -123,6 +124,19 @@ bool reverses_registers(WordOrder order) {
 
 bool swaps_bytes(WordOrder order) {
     return order_entry(order).swaps_bytes;
+}
+
+std::optional<unsigned> parse_number_up_to(std::string_view text, unsigned max) {
+    unsigned value = 0;
+    int base = 10;
+    if (text.starts_with("0x") || text.starts_with("0X")) {
+        text.remove_prefix(2);
+        base = 16;
+    }
+    const auto* end = text.data() + text.size();
+    const auto [ptr, ec] = std::from_chars(text.data(), end, value, base);
+    if (text.empty() || ec != std::errc{} || ptr != end || value > max) return std::nullopt;
+    return value;
 }
 
 bool is_bit_table(std::string_view table) {

@@ -74,6 +74,9 @@ struct SourcePos {
 // give), computed once; 0, which no scale is, for any other N.
 double scale_for_decimals(int decimals);
 
+// A number written in decimal or 0x hex, up to `max` ("247", "0x4082"), or nullopt.
+std::optional<unsigned> parse_number_up_to(std::string_view text, unsigned max);
+
 // Whether a profile table holds single bits ("coil", "discrete") rather than registers.
 bool is_bit_table(std::string_view table);
 
