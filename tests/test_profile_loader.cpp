@@ -119,7 +119,7 @@ access = "W"
     const Register* energy = p.register_at("holding", 4);
     ASSERT_NE(energy, nullptr);
     EXPECT_EQ(energy->length, 2);
-    EXPECT_EQ(energy->word_order, WordOrder::low_first);
+    EXPECT_EQ(energy->word_order, WordOrder::cdab);
     EXPECT_EQ(energy->access, Access::read_write);
     EXPECT_EQ(energy->writes.at(0xAABB), "clear");
     EXPECT_EQ(p.register_covering("holding", 5), energy);
@@ -152,6 +152,54 @@ type = "i16"
     EXPECT_EQ(p.register_at("holding", 1798)->name, "ch18.s50");
     EXPECT_EQ(p.register_at("holding", 1), nullptr);  // the formula skips odd addresses
     EXPECT_EQ(p.register_at("holding", 1798)->type, ValueType::i16);
+}
+
+TEST(ProfileLoader, SixtyFourBitTypesTakeFourRegistersInAnyWordOrder) {
+    const auto l = load(std::string(kDevice) + R"(
+[[register]]
+address = 0
+name = "energy"
+type = "u64"
+
+[[register]]
+address = 4
+name = "offset"
+type = "i64"
+word_order = "low_first"
+
+[[register]]
+address = 8
+name = "flow"
+type = "f64"
+word_order = "badc"
+
+[[register]]
+address = 12
+name = "power"
+type = "f32"
+word_order = "dcba"
+
+[[register]]
+address = 14
+name = "count"
+type = "u32"
+word_order = "cdab"
+)");
+    ASSERT_TRUE(l.profile) << problems(l);
+    const Profile& p = *l.profile;
+    const Register* energy = p.register_at("holding", 0);
+    ASSERT_NE(energy, nullptr);
+    EXPECT_EQ(energy->type, ValueType::u64);
+    EXPECT_EQ(energy->length, 4);
+    EXPECT_EQ(energy->word_order, WordOrder::abcd);
+    EXPECT_EQ(p.register_covering("holding", 3), energy);
+    EXPECT_EQ(p.register_at("holding", 4)->type, ValueType::i64);
+    EXPECT_EQ(p.register_at("holding", 4)->word_order, WordOrder::cdab);
+    EXPECT_EQ(p.register_at("holding", 8)->type, ValueType::f64);
+    EXPECT_EQ(p.register_at("holding", 8)->word_order, WordOrder::badc);
+    EXPECT_EQ(p.register_at("holding", 12)->word_order, WordOrder::dcba);
+    EXPECT_EQ(p.register_at("holding", 12)->length, 2);
+    EXPECT_EQ(p.register_at("holding", 14)->word_order, WordOrder::cdab);
 }
 
 struct BadCase {
@@ -233,8 +281,24 @@ INSTANTIATE_TEST_SUITE_P(
         BadCase{"unknown_type",
                 std::string(kDevice) + "[[register]]\naddress = 1\nname = \"a\"\n"
                                        "type = \"u24\"\n",
-                "test.toml:6:8: unknown type \"u24\" (u16, i16, u32, i32, f32, bits, enum, "
-                "string)\n"},
+                "test.toml:6:8: unknown type \"u24\" (u16, i16, u32, i32, f32, u64, i64, f64, "
+                "bits, enum, string)\n"},
+        BadCase{"unknown_word_order",
+                std::string(kDevice) + "[[register]]\naddress = 1\nname = \"a\"\n"
+                                       "type = \"f64\"\nword_order = \"bacd\"\n",
+                "test.toml:7:14: unknown word_order \"bacd\" (abcd, cdab, badc, dcba, "
+                "high_first (abcd), low_first (cdab))\n"},
+        BadCase{"word_order_of_one_register",
+                std::string(kDevice) + "[[register]]\naddress = 1\nname = \"a\"\n"
+                                       "type = \"i16\"\nword_order = \"dcba\"\n",
+                "test.toml:7:14: word_order is only for u32, i32, f32, u64, i64 and f64\n"},
+        // A 64-bit value covers four registers.
+        BadCase{"overlap_of_a_64_bit_value",
+                std::string(kDevice) + "[[register]]\naddress = 0\nname = \"total\"\n"
+                                       "type = \"u64\"\n\n[[register]]\naddress = 3\n"
+                                       "name = \"next\"\n",
+                "test.toml:8:1: register \"next\" (0x0003) overlaps \"total\" (0x0000, 4 "
+                "registers, line 3) in table holding\n"},
         BadCase{"overlap",
                 std::string(kDevice) +
                     "[[register]]\naddress = 4\nname = \"energy\"\ntype = \"u32\"\n\n"
@@ -318,10 +382,10 @@ INSTANTIATE_TEST_SUITE_P(
                 "registers, line 3) in table holding\n"},
         // Whose length is unknown overlaps nothing, but its name is still checked.
         BadCase{"unknown_type_keeps_its_name",
-                std::string(kDevice) + "[[register]]\naddress = 0\nname = \"a\"\ntype = \"u64\"\n\n"
+                std::string(kDevice) + "[[register]]\naddress = 0\nname = \"a\"\ntype = \"u128\"\n\n"
                                        "[[register]]\naddress = 1\nname = \"a\"\n",
-                "test.toml:6:8: unknown type \"u64\" (u16, i16, u32, i32, f32, bits, enum, "
-                "string)\n"
+                "test.toml:6:8: unknown type \"u128\" (u16, i16, u32, i32, f32, u64, i64, "
+                "f64, bits, enum, string)\n"
                 "test.toml:8:1: duplicate register name \"a\" (also at line 3)\n"},
         // Every key of a [[function]] is checked, whatever is wrong with its code.
         BadCase{"function_without_code",

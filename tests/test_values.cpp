@@ -59,7 +59,7 @@ Profile meter() {
     energy.writes = {{0x0000AABB, "clear the energy counter"}};
     p.registers.push_back(energy);
     Register count = reg("holding", 0x0004, "count", ValueType::u32, 2);
-    count.word_order = WordOrder::low_first;
+    count.word_order = WordOrder::cdab;
     p.registers.push_back(count);
     p.registers.push_back(reg("holding", 0x0006, "offset", ValueType::i32, 2));
     Register power = reg("holding", 0x0008, "power", ValueType::f32, 2);

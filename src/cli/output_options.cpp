@@ -14,6 +14,7 @@
 #include "errors.hpp"
 #include "output/filter.hpp"
 #include "output/sinks.hpp"
+#include "profiles/quick_type.hpp"
 #include "stats/report.hpp"
 #include "util/io_block.hpp"
 #include "util/text_file.hpp"
@@ -58,6 +59,19 @@ void add_line_options(CLI::App& cmd, OutputArgs& args) {
                    "Seconds after which a request counts as unanswered (default 1)");
 }
 
+// The bus map and, on top of it, --as.
+void add_device_options(CLI::App& cmd, OutputArgs& args) {
+    add_bus_options(cmd, args.bus);
+    cmd.add_option("--as", args.quick_types,
+                   "Decode one register as TYPE, as a line of a profile would: "
+                   "SLAVE[:TABLE]:ADDR=TYPE[/ORDER][*SCALE][:UNIT], e.g. "
+                   "247:input:0x4082=f32/cdab or 3:0x0010=u16*0.1:V (TABLE holding, input, "
+                   "coil or discrete; default holding). Adds to or overrides the slave's "
+                   "profile, or gives a slave without one a profile of these registers; "
+                   "repeatable")
+        ->type_name("SLAVE[:TABLE]:ADDR=TYPE");
+}
+
 TimeFormat time_format(const std::string& letters) {
     if (letters == "ad") return TimeFormat::local_date;
     if (letters == "u") return TimeFormat::utc;
@@ -73,7 +87,7 @@ TimeFormat time_format(const std::string& letters) {
 void add_output_options(CLI::App& cmd, OutputArgs& args) {
     auto* csv = cmd.add_flag("--csv", args.csv, "Print the per-frame CSV instead of text");
     auto* values = cmd.add_flag("--values-csv", args.values_csv,
-                                "Print one CSV row per register value (needs --device or --bus) "
+                                "Print one CSV row per register value (needs --device, --bus or --as) "
                                 "instead of text");
     values->excludes(csv);
     cmd.add_flag("--jsonl", args.jsonl,
@@ -90,7 +104,7 @@ void add_output_options(CLI::App& cmd, OutputArgs& args) {
     add_line_options(cmd, args);
     add_display_options(cmd, args);
     add_filter_options(cmd, args);
-    add_bus_options(cmd, args.bus);
+    add_device_options(cmd, args);
 }
 
 // The text's look. `stats` takes them too, so that a decode's command line still works
@@ -120,7 +134,7 @@ void add_stats_options(CLI::App& cmd, OutputArgs& args) {
     add_line_options(cmd, args);
     add_display_options(cmd, args);
     add_filter_options(cmd, args);
-    add_bus_options(cmd, args.bus);
+    add_device_options(cmd, args);
 }
 
 void add_rtu_port_option(CLI::App& cmd, std::vector<std::uint16_t>& ports) {
@@ -135,7 +149,7 @@ void add_rtu_port_option(CLI::App& cmd, std::vector<std::uint16_t>& ports) {
 void add_watch_options(CLI::App& cmd, OutputArgs& args) {
     add_line_options(cmd, args);
     cmd.add_flag("--no-color", args.no_color, "No colour (also off when NO_COLOR is set)");
-    add_bus_options(cmd, args.bus);
+    add_device_options(cmd, args);
 }
 
 namespace {
@@ -197,7 +211,10 @@ SourceInfo live_capture_header(const Decoding& decoding, const SourceInfo& live)
     if (decoding.options.bus == nullptr) return header;
     std::vector<const Profile*> embedded;
     for (unsigned address = 0; address < 256; ++address) {
-        const Profile* p = decoding.options.bus->profile_for(static_cast<std::uint8_t>(address));
+        const Profile* own = decoding.options.bus->profile_for(static_cast<std::uint8_t>(address));
+        // A header can only name profiles: a slave's --as registers are not in it, and a
+        // profile of nothing but --as registers leaves its slave out.
+        const Profile* p = own == nullptr ? nullptr : decoding.options.bus->find_profile(own->name);
         if (p == nullptr) continue;
         header.devices.emplace_back(static_cast<std::uint8_t>(address), p->name);
         if (p->file.starts_with("<bundled>") ||
@@ -239,6 +256,12 @@ std::optional<Decoding> prepare_decoding(const OutputArgs& args, int& exit_code,
     }
     d.options.timeout = static_cast<Nanos>(std::llround(args.timeout_s * 1e9));
 
+    std::vector<QuickType> quick_types;
+    for (const std::string& text : args.quick_types) {
+        auto q = parse_quick_type(text);
+        if (!q) return fail(q.error(), 2);
+        quick_types.push_back(std::move(*q));
+    }
     auto bus = build_bus(args.bus);
     if (!bus) return fail(bus.error(), 1);
     if (Status s = assign_devices(**bus, args.bus); !s) return fail(s.error(), 2);
@@ -247,10 +270,11 @@ std::optional<Decoding> prepare_decoding(const OutputArgs& args, int& exit_code,
         if (Status s = use_capture_header(*d.bus, *input, args); !s) return fail(s.error(), 1);
         note_line_replaced(*input, args);
     }
+    apply_quick_types(*d.bus, quick_types);
     if (!d.bus->empty()) d.options.bus = d.bus.get();
     if (args.values_csv && d.options.bus == nullptr) {
-        return fail(Error{"--values-csv needs to know the devices: --device ADDR=PROFILE or "
-                          "--bus FILE"},
+        return fail(Error{"--values-csv needs to know the devices: --device ADDR=PROFILE, "
+                          "--bus FILE or --as SLAVE:ADDR=TYPE"},
                     2);
     }
 

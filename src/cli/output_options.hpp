@@ -39,6 +39,7 @@ struct OutputArgs {
     bool no_values = false;
     bool no_color = false;
     BusArgs bus;
+    std::vector<std::string> quick_types;  // --as SLAVE[:TABLE]:ADDR=TYPE
 };
 
 void add_output_options(CLI::App& cmd, OutputArgs& args);

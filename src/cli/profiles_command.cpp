@@ -13,28 +13,6 @@
 namespace rtuscope::cli {
 namespace {
 
-const char* type_text(ValueType type) {
-    switch (type) {
-        case ValueType::u16:
-            return "u16";
-        case ValueType::i16:
-            return "i16";
-        case ValueType::u32:
-            return "u32";
-        case ValueType::i32:
-            return "i32";
-        case ValueType::f32:
-            return "f32";
-        case ValueType::bits:
-            return "bits";
-        case ValueType::enumeration:
-            return "enum";
-        case ValueType::string:
-            return "string";
-    }
-    return "";
-}
-
 const char* access_text(Access access) {
     switch (access) {
         case Access::read:
@@ -57,15 +35,12 @@ std::string scale_text(const Register& r) {
     return "";
 }
 
-// How many registers the value takes and, for 32-bit values, which comes first: what
+// How many registers the value takes and, for values of several, their word order: what
 // turns the words read into the raw value ("2 low_first").
 std::string registers_text(const Register& r) {
     if (is_bit_table(r.table)) return "bit";
-    const bool wide =
-        r.type == ValueType::u32 || r.type == ValueType::i32 || r.type == ValueType::f32;
-    if (!wide) return std::to_string(r.length);
-    return fmt::format("{} {}", r.length,
-                       r.word_order == WordOrder::high_first ? "high_first" : "low_first");
+    if (!is_multi_register(r.type)) return std::to_string(r.length);
+    return fmt::format("{} {}", r.length, word_order_name(r.word_order));
 }
 
 std::string range_text(const Register& r) {
@@ -151,7 +126,7 @@ int show_profile(const BusArgs& args, const std::string& name) {
         ha_class("home_assistant.device_class", r.ha_device_class);
         ha_class("home_assistant.state_class", r.ha_state_class);
         fmt::print("{:<9} 0x{:04X}  {:<24} {:<6} {:<12} {:<7} {:<8} {:<6} {:<14} {}\n", r.table,
-                   r.address, r.name, type_text(r.type), registers_text(r), scale_text(r), r.unit,
+                   r.address, r.name, value_type_name(r.type), registers_text(r), scale_text(r), r.unit,
                    access_text(r.access), range_text(r), extra);
     }
     return 0;

@@ -211,6 +211,9 @@ class Names {
                     case ValueType::u32:
                     case ValueType::i32:
                     case ValueType::f32:
+                    case ValueType::u64:
+                    case ValueType::i64:
+                    case ValueType::f64:
                         kinds.numbers = true;
                         break;
                 }

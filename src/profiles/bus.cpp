@@ -3,7 +3,6 @@
 #include <fmt/format.h>
 
 #include <algorithm>
-#include <charconv>
 #include <tuple>
 
 #include "profiles/toml.hpp"
@@ -64,6 +63,11 @@ Status Bus::assign(std::uint8_t address, std::string_view profile_name) {
     return ok_status();
 }
 
+void Bus::assign_own(std::uint8_t address, Profile profile) {
+    by_address_[address] = &own_profiles_.emplace_back(std::move(profile));
+    update_owners();
+}
+
 const Profile* Bus::profile_for(std::uint8_t address) const {
     return by_address_[address];
 }
@@ -121,26 +125,9 @@ std::optional<LineSettings> Bus::line() const {
     return agreed;
 }
 
-namespace {
-
-std::optional<unsigned> parse_address(std::string_view text) {
-    unsigned value = 0;
-    int base = 10;
-    if (text.starts_with("0x") || text.starts_with("0X")) {
-        text.remove_prefix(2);
-        base = 16;
-    }
-    const auto* end = text.data() + text.size();
-    const auto [ptr, ec] = std::from_chars(text.data(), end, value, base);
-    if (text.empty() || ec != std::errc{} || ptr != end || value > 255) return std::nullopt;
-    return value;
-}
-
-}  // namespace
-
 Status assign_device_option(Bus& bus, std::string_view option) {
     const auto eq = option.find('=');
-    const auto address = parse_address(option.substr(0, eq));
+    const auto address = parse_number_up_to(option.substr(0, eq), 255);
     if (eq == std::string_view::npos || !address) {
         return Error{fmt::format(
             "bad --device \"{}\" (expected ADDRESS=PROFILE, e.g. 3=pdu485, address 0-255)",

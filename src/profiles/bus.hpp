@@ -33,6 +33,8 @@ class Bus {
     [[nodiscard]] std::vector<const Profile*> profiles() const;
 
     Status assign(std::uint8_t address, std::string_view profile_name);
+    // A profile for the slave at `address` alone (--as): find_profile does not know it.
+    void assign_own(std::uint8_t address, Profile profile);
     [[nodiscard]] const Profile* profile_for(std::uint8_t address) const;
     // The profile that speaks for frames to or from `slave`: its own, or that of the
     // device that owns `slave` as its non-standard broadcast address (ZB-UVI485: 255).
@@ -52,6 +54,7 @@ class Bus {
 
     mutable std::deque<Profile> profiles_;  // stable addresses for the pointers below
     mutable bool bundled_added_ = false;
+    std::deque<Profile> own_profiles_;  // assign_own's, stable like profiles_
     std::array<const Profile*, 256> by_address_{};
     // owner() of every address, worked out whenever the map or a profile changes: it is
     // asked several times per frame, and searching the map each time would make decoding

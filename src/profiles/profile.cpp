@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <array>
+#include <charconv>
 #include <cmath>
 
 #include "decode/pdu_decoders.hpp"
@@ -21,6 +22,121 @@ double scale_for_decimals(int decimals) {
     return decimals >= 0 && static_cast<std::size_t>(decimals) < kScales.size()
                ? kScales[static_cast<std::size_t>(decimals)]
                : 0.0;
+}
+
+namespace {
+
+struct TypeEntry {
+    const char* name;
+    ValueType type;
+    std::uint16_t registers;
+};
+
+constexpr std::array<TypeEntry, 11> kTypes = {{
+    {"u16", ValueType::u16, 1},
+    {"i16", ValueType::i16, 1},
+    {"u32", ValueType::u32, 2},
+    {"i32", ValueType::i32, 2},
+    {"f32", ValueType::f32, 2},
+    {"u64", ValueType::u64, 4},
+    {"i64", ValueType::i64, 4},
+    {"f64", ValueType::f64, 4},
+    {"bits", ValueType::bits, 1},
+    {"enum", ValueType::enumeration, 1},
+    {"string", ValueType::string, 0},
+}};
+
+struct OrderEntry {
+    const char* name;
+    WordOrder order;
+    bool reverses_registers;
+    bool swaps_bytes;
+};
+
+// The first entry of an order gives its name; high_first and low_first are what profiles
+// have always called the two orders that keep the bytes of each register.
+constexpr std::array<OrderEntry, 6> kOrders = {{
+    {"high_first", WordOrder::abcd, false, false},
+    {"low_first", WordOrder::cdab, true, false},
+    {"badc", WordOrder::badc, false, true},
+    {"dcba", WordOrder::dcba, true, true},
+    {"abcd", WordOrder::abcd, false, false},
+    {"cdab", WordOrder::cdab, true, false},
+}};
+
+const TypeEntry& type_entry(ValueType type) {
+    for (const TypeEntry& e : kTypes) {
+        if (e.type == type) return e;
+    }
+    return kTypes.back();  // not reached: every type has its entry
+}
+
+const OrderEntry& order_entry(WordOrder order) {
+    for (const OrderEntry& e : kOrders) {
+        if (e.order == order) return e;
+    }
+    return kOrders.front();  // not reached: every order has its entry
+}
+
+}  // namespace
+
+std::optional<ValueType> value_type_named(std::string_view name) {
+    for (const TypeEntry& e : kTypes) {
+        if (std::string_view(e.name) == name) return e.type;
+    }
+    return std::nullopt;
+}
+
+const char* value_type_name(ValueType type) {
+    return type_entry(type).name;
+}
+
+const char* value_type_names() {
+    return "u16, i16, u32, i32, f32, u64, i64, f64, bits, enum, string";
+}
+
+std::uint16_t registers_of(ValueType type) {
+    return type_entry(type).registers;
+}
+
+bool is_multi_register(ValueType type) {
+    return type_entry(type).registers > 1;
+}
+
+std::optional<WordOrder> word_order_named(std::string_view name) {
+    for (const OrderEntry& e : kOrders) {
+        if (std::string_view(e.name) == name) return e.order;
+    }
+    return std::nullopt;
+}
+
+const char* word_order_name(WordOrder order) {
+    return order_entry(order).name;
+}
+
+const char* word_order_names() {
+    return "abcd, cdab, badc, dcba, high_first (abcd), low_first (cdab)";
+}
+
+bool reverses_registers(WordOrder order) {
+    return order_entry(order).reverses_registers;
+}
+
+bool swaps_bytes(WordOrder order) {
+    return order_entry(order).swaps_bytes;
+}
+
+std::optional<unsigned> parse_number_up_to(std::string_view text, unsigned max) {
+    unsigned value = 0;
+    int base = 10;
+    if (text.starts_with("0x") || text.starts_with("0X")) {
+        text.remove_prefix(2);
+        base = 16;
+    }
+    const auto* end = text.data() + text.size();
+    const auto [ptr, ec] = std::from_chars(text.data(), end, value, base);
+    if (text.empty() || ec != std::errc{} || ptr != end || value > max) return std::nullopt;
+    return value;
 }
 
 bool is_bit_table(std::string_view table) {

@@ -18,10 +18,49 @@
 
 namespace rtuscope {
 
-enum class ValueType : std::uint8_t { u16, i16, u32, i32, f32, bits, enumeration, string };
+enum class ValueType : std::uint8_t {
+    u16,
+    i16,
+    u32,
+    i32,
+    f32,
+    u64,
+    i64,
+    f64,
+    bits,
+    enumeration,
+    string
+};
 
-// Which register of a 32-bit value comes first on the wire.
-enum class WordOrder : std::uint8_t { high_first, low_first };
+// How the bytes of a value of several registers lie on the wire, in the letters Modbus
+// tools use for a 32-bit value whose most significant byte is A: abcd is big-endian,
+// cdab has the registers swapped, badc the bytes within each register, dcba both. A
+// 64-bit value extends the pattern: cdab and dcba put its least significant register
+// first (docs/profiles.md draws it).
+enum class WordOrder : std::uint8_t { abcd, cdab, badc, dcba };
+
+// The type a profile names ("u32", "enum"), or nullopt.
+std::optional<ValueType> value_type_named(std::string_view name);
+// What a profile calls the type: value_type_named(value_type_name(t)) == t.
+const char* value_type_name(ValueType type);
+// Every type name, for messages: "u16, i16, ..., string".
+const char* value_type_names();
+// Registers a value of the type takes: 1, 2 or 4; 0 for a string, whose length says.
+std::uint16_t registers_of(ValueType type);
+// Whether the type takes several registers, and so a word order (u32 ... f64).
+bool is_multi_register(ValueType type);
+
+// The order a profile names ("cdab"; "high_first" is abcd, "low_first" cdab), or nullopt.
+std::optional<WordOrder> word_order_named(std::string_view name);
+// The order's name: "high_first" and "low_first" for abcd and cdab, the letters for
+// the others.
+const char* word_order_name(WordOrder order);
+// Every order name, for messages.
+const char* word_order_names();
+// What an order does to the words read: the register order reversed (least significant
+// first), and the two bytes of each register swapped.
+bool reverses_registers(WordOrder order);
+bool swaps_bytes(WordOrder order);
 
 enum class Access : std::uint8_t { read, write, read_write };
 
@@ -35,6 +74,9 @@ struct SourcePos {
 // give), computed once; 0, which no scale is, for any other N.
 double scale_for_decimals(int decimals);
 
+// A number written in decimal or 0x hex, up to `max` ("247", "0x4082"), or nullopt.
+std::optional<unsigned> parse_number_up_to(std::string_view text, unsigned max);
+
 // Whether a profile table holds single bits ("coil", "discrete") rather than registers.
 bool is_bit_table(std::string_view table);
 
@@ -44,8 +86,8 @@ struct Register {
     std::uint16_t address = 0;
     std::string name;  // unique in the profile (after formula expansion)
     ValueType type = ValueType::u16;
-    WordOrder word_order = WordOrder::high_first;  // u32, i32, f32
-    std::uint16_t length = 1;  // registers: 1 for 16-bit, 2 for 32-bit, n for strings
+    WordOrder word_order = WordOrder::abcd;  // types of several registers
+    std::uint16_t length = 1;  // registers: 1, 2 or 4 (registers_of), n for strings
     double scale = 1.0;        // value = raw * scale (decimals d gives scale 10^-d)
     int decimals = -1;         // digits to print; -1: as many as the scale implies
     std::string unit;

@@ -289,19 +289,6 @@ class Loader {
         if (code && !repeated) profile_.functions.push_back(std::move(f));
     }
 
-    static std::optional<ValueType> type_named(std::string_view name) {
-        static const std::map<std::string_view, ValueType> types = {
-            {"u16", ValueType::u16},          {"i16", ValueType::i16},
-            {"u32", ValueType::u32},          {"i32", ValueType::i32},
-            {"f32", ValueType::f32},          {"bits", ValueType::bits},
-            {"enum", ValueType::enumeration}, {"string", ValueType::string}};
-        auto it = types.find(name);
-        return it == types.end() ? std::nullopt : std::optional(it->second);
-    }
-    static bool is_32bit(ValueType t) {
-        return t == ValueType::u32 || t == ValueType::i32 || t == ValueType::f32;
-    }
-
     // `{ "0x0A" = "label" }`: keys are numbers (decimal or 0x hex) up to `max`.
     std::map<std::uint32_t, std::string> read_labels(const toml::node& node, std::string_view key,
                                                      std::uint32_t max) {
@@ -456,27 +443,26 @@ class Loader {
         }
 
         if (auto type = get_string(t, "type")) {
-            if (auto vt = type_named(*type)) {
+            if (auto vt = value_type_named(*type)) {
                 r.type = *vt;
             } else {
-                problem(*t.get("type"), fmt::format("unknown type \"{}\" (u16, i16, u32, i32, "
-                                                    "f32, bits, enum, string)",
-                                                    *type));
+                problem(*t.get("type"),
+                        fmt::format("unknown type \"{}\" ({})", *type, value_type_names()));
                 sized = false;
             }
         } else if (t.get("type") != nullptr) {
             sized = false;
         }
-        if (is_32bit(r.type)) r.length = 2;
+        if (is_multi_register(r.type)) r.length = registers_of(r.type);
         if (auto order = get_string(t, "word_order")) {
-            if (!is_32bit(r.type)) {
-                problem(*t.get("word_order"), "word_order is only for u32, i32 and f32");
-            } else if (*order == "low_first") {
-                r.word_order = WordOrder::low_first;
-            } else if (*order != "high_first") {
+            if (!is_multi_register(r.type)) {
                 problem(*t.get("word_order"),
-                        fmt::format("word_order \"{}\" must be \"high_first\" or \"low_first\"",
-                                    *order));
+                        "word_order is only for u32, i32, f32, u64, i64 and f64");
+            } else if (auto named = word_order_named(*order)) {
+                r.word_order = *named;
+            } else {
+                problem(*t.get("word_order"),
+                        fmt::format("unknown word_order \"{}\" ({})", *order, word_order_names()));
             }
         }
         if (auto length = get_integer(t, "length", 1, 125)) {

@@ -12,6 +12,7 @@
 #include <bit>
 #include <cmath>
 #include <cstddef>
+#include <limits>
 #include <span>
 #include <string_view>
 
@@ -26,13 +27,9 @@ using Words = std::span<const std::uint16_t>;
 // Anything a profile could ask for beyond this is a typo, not a wish for 10^9 digits.
 constexpr int kMaxDecimals = 30;
 
-bool is_32bit(ValueType type) {
-    return type == ValueType::u32 || type == ValueType::i32 || type == ValueType::f32;
-}
-
 bool is_integer_type(ValueType type) {
     return type == ValueType::u16 || type == ValueType::i16 || type == ValueType::u32 ||
-           type == ValueType::i32;
+           type == ValueType::i32 || type == ValueType::u64 || type == ValueType::i64;
 }
 
 // Each value of a device read shows its words and its number: written directly, not
@@ -121,6 +118,7 @@ NumberStyle style_for(const Register& reg, bool bit_table) {
     // A float's own digits are its precision; rounding to the scale's decimals would hide
     // digits the device sent.
     if (!bit_table && reg.type == ValueType::f32) return {NumberStyle::Kind::shortest_float, 0};
+    if (!bit_table && reg.type == ValueType::f64) return {NumberStyle::Kind::shortest_double, 0};
     const int implied = decimals_implied_by(reg.scale);
     if (implied >= 0) return {NumberStyle::Kind::fixed, implied};
     return {NumberStyle::Kind::shortest_double, 0};
@@ -182,22 +180,49 @@ void check_range(const Register& reg, double value, const NumberStyle& style, De
     }
 }
 
-// A number read from the wire: integers exactly, floats as sent.
+// A number read from the wire: integers exactly, floats as sent. A u64 above the
+// largest i64 is the one integer `integer` cannot hold: it keeps it in `large`.
 struct RawNumber {
+    enum class Kind : std::uint8_t { integer, large_unsigned, real };
+    Kind kind = Kind::integer;
     std::int64_t integer = 0;
-    float real = 0;
-    bool is_real = false;
+    std::uint64_t large = 0;
+    double real = 0;
+
+    static RawNumber of_integer(std::int64_t value) { return {Kind::integer, value, 0, 0}; }
+    static RawNumber of_unsigned(std::uint64_t value) {
+        return value > static_cast<std::uint64_t>(std::numeric_limits<std::int64_t>::max())
+                   ? RawNumber{Kind::large_unsigned, 0, value, 0}
+                   : of_integer(static_cast<std::int64_t>(value));
+    }
+    static RawNumber of_real(double value) { return {Kind::real, 0, 0, value}; }
+
+    [[nodiscard]] double as_double() const {
+        switch (kind) {
+            case Kind::integer:
+                return static_cast<double>(integer);
+            case Kind::large_unsigned:
+                return static_cast<double>(large);
+            case Kind::real:
+                break;
+        }
+        return real;
+    }
 };
 
 void set_number(const Register& reg, RawNumber raw, bool bit_table, DecodedValue& v) {
     const NumberStyle style = style_for(reg, bit_table);
-    const double value = raw.is_real ? static_cast<double>(raw.real) * reg.scale
-                                     : static_cast<double>(raw.integer) * reg.scale;
-    if (style.kind == NumberStyle::Kind::integer && !raw.is_real) {
+    const double value = raw.as_double() * reg.scale;
+    const bool integer = raw.kind == RawNumber::Kind::integer;
+    if (style.kind == NumberStyle::Kind::integer && integer) {
         append_decimal(v.value, raw.integer);
-    } else if (style.kind == NumberStyle::Kind::fixed && !raw.is_real &&
+    } else if (style.kind == NumberStyle::Kind::integer &&
+               raw.kind == RawNumber::Kind::large_unsigned) {
+        const fmt::format_int text(raw.large);
+        v.value.append(text.data(), text.size());
+    } else if (style.kind == NumberStyle::Kind::fixed && integer &&
                reg.scale == scale_for_decimals(style.decimals) &&
-               std::abs(raw.integer) < (std::int64_t{1} << 51)) {
+               raw.integer > -(std::int64_t{1} << 51) && raw.integer < (std::int64_t{1} << 51)) {
         // `decimals = N` (or a scale of exactly 10^-N) on an integer register, the usual case.
         append_shifted_decimal(v.value, raw.integer, style.decimals);
     } else {
@@ -249,17 +274,23 @@ void append_ascii_text(std::string& out, Words words) {
     }
 }
 
-std::uint32_t combine(const Register& reg, Words words) {
-    const std::uint32_t first = words[0];
-    const std::uint32_t second = words[1];
-    return reg.word_order == WordOrder::high_first ? (first << 16U) | second
-                                                   : (second << 16U) | first;
+// The value of a register of several words, as the word order puts them together.
+std::uint64_t combine(const Register& reg, Words words) {
+    const bool reversed = reverses_registers(reg.word_order);
+    const bool swapped = swaps_bytes(reg.word_order);
+    std::uint64_t raw = 0;
+    for (std::size_t i = 0; i < words.size(); ++i) {
+        const std::uint16_t word = words[reversed ? words.size() - 1 - i : i];
+        raw = (raw << 16U) | (swapped ? ((word & 0xFFU) << 8U) | (word >> 8U) : word);
+    }
+    return raw;
 }
 
 // A write carries a command rather than a quantity when its raw value is listed in
 // `writes`; the meaning replaces the number then (and a range makes no sense for it).
-bool set_special_write(const Register& reg, std::uint32_t raw, DecodedValue& v) {
-    const auto meaning = reg.writes.find(raw);
+bool set_special_write(const Register& reg, std::uint64_t raw, DecodedValue& v) {
+    if (raw > std::numeric_limits<std::uint32_t>::max()) return false;
+    const auto meaning = reg.writes.find(static_cast<std::uint32_t>(raw));
     if (meaning == reg.writes.end()) return false;
     v.value = meaning->second;
     v.unit.clear();
@@ -305,7 +336,7 @@ void decode_bit(const Register& reg, std::uint16_t address, std::uint16_t item, 
         set_enum(reg, bit, v);
         return;
     }
-    set_number(reg, {static_cast<std::int64_t>(bit), 0, false}, true, v);
+    set_number(reg, RawNumber::of_integer(bit), true, v);
 }
 
 // A register whose every word is in the block.
@@ -315,30 +346,42 @@ void decode_register(const Register& reg, std::uint16_t address, Words words, bo
     v.name = reg.name;
     append_hex_words(v.raw, words);
     note_access_mismatch(reg, write, v);
-    if (is_32bit(reg.type) && words.size() < 2) {
+    const bool wide = is_multi_register(reg.type);
+    const std::size_t needed = registers_of(reg.type);
+    if (wide && words.size() < needed) {
         // Only a broken profile gets here (a 32-bit type of length 1); say so, do not guess.
         fmt::format_to(std::back_inserter(add_note(v, note_id::value_partial)),
-                       "a 32-bit value needs 2 registers, the profile gives {}", words.size());
+                       "a {}-bit value needs {} registers, the profile gives {}", needed * 16,
+                       needed, words.size());
         return;
     }
-    const std::uint32_t raw = is_32bit(reg.type) ? combine(reg, words) : words[0];
+    const std::uint64_t raw = wide ? combine(reg, words.first(needed)) : words[0];
     if (write && set_special_write(reg, raw, v)) return;
     switch (reg.type) {
         case ValueType::u16:
         case ValueType::u32:
-            set_number(reg, {static_cast<std::int64_t>(raw), 0, false}, false, v);
+        case ValueType::u64:
+            set_number(reg, RawNumber::of_unsigned(raw), false, v);
             break;
         case ValueType::i16:
-            set_number(reg, {static_cast<std::int16_t>(raw), 0, false}, false, v);
+            set_number(reg, RawNumber::of_integer(static_cast<std::int16_t>(raw)), false, v);
             break;
         case ValueType::i32:
-            set_number(reg, {static_cast<std::int32_t>(raw), 0, false}, false, v);
+            set_number(reg, RawNumber::of_integer(static_cast<std::int32_t>(raw)), false, v);
+            break;
+        case ValueType::i64:
+            set_number(reg, RawNumber::of_integer(static_cast<std::int64_t>(raw)), false, v);
             break;
         case ValueType::f32:
-            set_number(reg, {0, std::bit_cast<float>(raw), true}, false, v);
+            set_number(reg,
+                       RawNumber::of_real(std::bit_cast<float>(static_cast<std::uint32_t>(raw))),
+                       false, v);
+            break;
+        case ValueType::f64:
+            set_number(reg, RawNumber::of_real(std::bit_cast<double>(raw)), false, v);
             break;
         case ValueType::enumeration:
-            set_enum(reg, raw, v);
+            set_enum(reg, static_cast<std::uint32_t>(raw), v);
             break;
         case ValueType::bits:
             append_bit_names(v.value, reg, words[0]);
@@ -359,8 +402,8 @@ void partial(const Register& reg, std::uint16_t address, Words present, DecodedV
     const std::size_t count = present.size();
     const std::uint32_t last = std::uint32_t{reg.address} + reg.length - 1;
     auto text = std::back_inserter(add_note(v, note_id::value_partial));
-    if (is_32bit(reg.type) && reg.length == 2 && count == 1) {
-        const bool high = (offset == 0) == (reg.word_order == WordOrder::high_first);
+    if (reg.length == 2 && registers_of(reg.type) == 2 && count == 1) {
+        const bool high = (offset == 0) != reverses_registers(reg.word_order);
         fmt::format_to(text, "only the {} word of a 32-bit value", high ? "high" : "low");
     } else if (offset == 0) {
         fmt::format_to(text, "only the first {} of {} registers", count, reg.length);
@@ -368,6 +411,9 @@ void partial(const Register& reg, std::uint16_t address, Words present, DecodedV
         fmt::format_to(text, "only the last {} of {} registers", count, reg.length);
     } else {
         fmt::format_to(text, "only registers {}-{} of {}", offset + 1, offset + count, reg.length);
+    }
+    if (is_multi_register(reg.type) && reg.length > 2) {
+        fmt::format_to(text, " of a {}-bit value", reg.length * 16);
     }
     fmt::format_to(text, " (0x{:04X}-0x{:04X})", reg.address, last);
 }

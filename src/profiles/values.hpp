@@ -15,7 +15,7 @@ namespace rtuscope {
 
 namespace note_id {
 inline constexpr const char* value_out_of_range = "value.out_of_range";
-inline constexpr const char* value_partial = "value.partial";        // half of a 32-bit value
+inline constexpr const char* value_partial = "value.partial";        // part of a multi-register value
 inline constexpr const char* value_unlisted = "value.unlisted";      // not in the profile
 inline constexpr const char* value_read_only = "value.read_only";    // written but read-only
 inline constexpr const char* value_write_only = "value.write_only";  // read but write-only

@@ -610,6 +610,9 @@ bool is_number_type(ValueType type) {
         case ValueType::u32:
         case ValueType::i32:
         case ValueType::f32:
+        case ValueType::u64:
+        case ValueType::i64:
+        case ValueType::f64:
             return true;
         case ValueType::bits:
         case ValueType::enumeration:

@@ -40,6 +40,13 @@ add_cli_test(profiles_show_word_order_and_length RC 0
   ARGS profiles show show-meter --profile tests/data/profile_show.toml
   STDOUT_RE "\ntable +address +name +type +registers +scale +unit +access +range +description\ncoil +0x0000  relay +u16 +bit +R +\nholding +0x0000  energy +u32 +2 low_first +x0.01 +kWh +R +\nholding +0x0002  power +f32 +2 high_first +W +R +\nholding +0x0004  model +string +4 +R +\n$")
 
+# A word order or a type that is not one, each at its place.
+set(f tests/data/profile_word_orders.toml)
+add_cli_test(profiles_check_word_order_and_type RC 1 ARGS profiles check ${f}
+  STDERR_RE "^${f}:17:14: unknown word_order \"bacd\" \\(abcd, cdab, badc, dcba, high_first \\(abcd\\), low_first \\(cdab\\)\\)
+${f}:22:8: unknown type \"u128\" \\(u16, i16, u32, i32, f32, u64, i64, f64, bits, enum, string\\)
+$")
+
 # profiles check tells bus files from profiles by their content and checks them too:
 # every mistake, profile names known from --profile, --profile-dir and the files checked
 # with it.
