@@ -197,25 +197,13 @@ class Names {
             profiles_.push_back(profile->name);
             for (const Register& reg : profile->registers) {
                 RegisterKinds& kinds = registers_[reg.name];
-                switch (reg.type) {
-                    case ValueType::enumeration:
-                        kinds.labelled = true;
-                        for (const auto& [raw, label] : reg.labels) kinds.labels.push_back(label);
-                        break;
-                    case ValueType::bits:
-                    case ValueType::string:
-                        kinds.any_text = true;
-                        break;
-                    case ValueType::u16:
-                    case ValueType::i16:
-                    case ValueType::u32:
-                    case ValueType::i32:
-                    case ValueType::f32:
-                    case ValueType::u64:
-                    case ValueType::i64:
-                    case ValueType::f64:
-                        kinds.numbers = true;
-                        break;
+                if (reg.type == ValueType::enumeration) {
+                    kinds.labelled = true;
+                    for (const auto& [raw, label] : reg.labels) kinds.labels.push_back(label);
+                } else if (is_numeric(reg.type)) {
+                    kinds.numbers = true;
+                } else {
+                    kinds.any_text = true;  // bit names, text
                 }
                 for (const auto& [raw, meaning] : reg.writes) kinds.labels.push_back(meaning);
             }

@@ -87,6 +87,25 @@ std::optional<ValueType> value_type_named(std::string_view name) {
     return std::nullopt;
 }
 
+bool is_numeric(ValueType type) {
+    switch (type) {
+        case ValueType::u16:
+        case ValueType::i16:
+        case ValueType::u32:
+        case ValueType::i32:
+        case ValueType::f32:
+        case ValueType::u64:
+        case ValueType::i64:
+        case ValueType::f64:
+            return true;
+        case ValueType::bits:
+        case ValueType::enumeration:
+        case ValueType::string:
+            break;
+    }
+    return false;
+}
+
 const char* value_type_name(ValueType type) {
     return type_entry(type).name;
 }

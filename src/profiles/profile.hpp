@@ -41,6 +41,9 @@ enum class WordOrder : std::uint8_t { abcd, cdab, badc, dcba };
 
 // The type a profile names ("u32", "enum"), or nullopt.
 std::optional<ValueType> value_type_named(std::string_view name);
+// Whether values of the type are numbers (scaled, compared, published as numbers), not
+// labels, bit names or text.
+bool is_numeric(ValueType type);
 // What a profile calls the type: value_type_named(value_type_name(t)) == t.
 const char* value_type_name(ValueType type);
 // Every type name, for messages: "u16, i16, ..., string".

@@ -603,25 +603,6 @@ bool equals_lower(std::string_view a, std::string_view lower) {
                       [](char x, char y) { return std::tolower(static_cast<unsigned char>(x)) == y; });
 }
 
-bool is_number_type(ValueType type) {
-    switch (type) {
-        case ValueType::u16:
-        case ValueType::i16:
-        case ValueType::u32:
-        case ValueType::i32:
-        case ValueType::f32:
-        case ValueType::u64:
-        case ValueType::i64:
-        case ValueType::f64:
-            return true;
-        case ValueType::bits:
-        case ValueType::enumeration:
-        case ValueType::string:
-            break;
-    }
-    return false;
-}
-
 // The profile's entry of a register, nullptr without one.
 const Register* profile_register(const BusState& state, const RegisterState& r) {
     const SlaveState* slave = state.slave(r.key.slave);
@@ -780,7 +761,7 @@ void MqttExporter::publish_value(const BusState& state, std::uint32_t slot, bool
     // event ($write), not the register's value.
     if (r.written && !r.numeric) {
         const Register* reg = profile_register(state, r);
-        if (reg != nullptr && is_number_type(reg->type)) return;
+        if (reg != nullptr && is_numeric(reg->type)) return;
     }
     if (published_.size() < state.slot_count()) published_.resize(state.slot_count());
     Published& p = published_[slot];
@@ -858,7 +839,7 @@ void MqttExporter::publish_discovery(const BusState& state, const RegisterState&
                              (!humidity_unit || contains_word(state.text(r.name), "humidity"));
         // By the profile's type where there is one: a write's command word ("clear the
         // energy counter") leaves a number register a number register.
-        const bool numeric = reg != nullptr ? is_number_type(reg->type) : r.numeric;
+        const bool numeric = reg != nullptr ? is_numeric(reg->type) : r.numeric;
         const std::optional<std::string> no_override;
         put_class(json, "device_class", reg != nullptr ? reg->ha_device_class : no_override,
                   numeric && applies ? cls->device_class : std::string_view());
