@@ -36,8 +36,7 @@ diff <(records "$dir/live") <(records "$dir/later") >"$dir/diff" ||
 "$rtuscope" demo --no-color -w "$dir/kill.rtucap.zst" --rotate-seconds 2 >"$dir/kill.live" 2>/dev/null &
 pid=$!
 sleep 5
-kill -KILL "$pid"
-wait "$pid" 2>/dev/null
+{ kill -KILL "$pid"; wait "$pid"; } 2>/dev/null  # bash reports the killed job on stderr
 zfiles=("$dir"/kill-*.rtucap.zst)
 [ ${#zfiles[@]} -ge 2 ] || fail "${#zfiles[@]} compressed files for 5 s by 2 s"
 for f in "${zfiles[@]}"; do

@@ -26,8 +26,7 @@ grep -q 'uv_intensity' "$dir/term.out" || fail "nothing decoded before SIGTERM"
 "$rtuscope" demo --no-color -w "$dir/kill.rtucap" >/dev/null 2>&1 &
 pid=$!
 sleep 2
-kill -KILL "$pid"
-wait "$pid" 2>/dev/null || true
+{ kill -KILL "$pid"; wait "$pid"; } 2>/dev/null || true  # bash reports the killed job on stderr
 head -1 "$dir/kill.rtucap" | grep -qx '# rtuscope capture v1' || fail "capture header missing"
 "$rtuscope" decode "$dir/kill.rtucap" --no-color >"$dir/kill.out" 2>"$dir/kill.err" ||
   fail "the capture of a killed run does not decode: $(cat "$dir/kill.err")"

@@ -74,8 +74,7 @@ for _ in $(seq 20); do
     sub 'killed/demo/$status' | grep -q online && break
 done
 sub 'killed/demo/$status' | grep -q online || fail "the sniffer never came online"
-kill -KILL $pid
-wait $pid 2>/dev/null
+{ kill -KILL "$pid"; wait "$pid"; } 2>/dev/null  # bash reports the killed job on stderr
 sleep 1
 sub 'killed/demo/$status' | grep -q offline || fail "no last will after SIGKILL"
 
