@@ -210,12 +210,18 @@ Transaction seed_device(std::uint8_t slave, Rng& rng, Nanos t35) {
 // A USB serial adapter: bytes are handed over in batches of at most 64 bytes, when the
 // latency timer (16 ms by default, 1 ms in low-latency mode) runs out after the first
 // byte of a batch. So an answer sometimes arrives in the same chunk as its request.
-// Per byte, it is a logic analyser instead: every byte alone, when it ended.
+// Per byte, it is a logic analyser instead: every byte alone, when it ended. A UART's
+// FIFO hands its bytes over at its trigger level or after its receive timeout.
 class Adapter {
   public:
     Adapter(Rng& rng, const std::function<void(const Chunk&)>& out, TrafficStats& stats,
-            bool per_byte)
-        : rng_(rng), out_(out), stats_(stats), per_byte_(per_byte) {}
+            const TrafficOptions& options)
+        : rng_(rng),
+          out_(out),
+          stats_(stats),
+          per_byte_(options.per_byte),
+          usb_timer_(options.usb_timer),
+          fifo_timeout_(options.uart_fifo ? 4 * char_time_8n1(options.baud) : 0) {}
 
     void byte(std::uint8_t b, Nanos end) {
         if (per_byte_) {
@@ -223,12 +229,25 @@ class Adapter {
             flush(end);
             return;
         }
+        if (fifo_timeout_ != 0) {
+            if (!chunk_.bytes.empty() && end > last_end_ + fifo_timeout_) {
+                flush(last_end_ + fifo_timeout_);
+            }
+            chunk_.bytes.push_back(b);
+            last_end_ = end;
+            deadline_ = end + fifo_timeout_;
+            if (chunk_.bytes.size() == kFifoTrigger) flush(end);
+            return;
+        }
         if (!chunk_.bytes.empty() && end > deadline_) flush(deadline_);
         if (chunk_.bytes.empty()) {
-            const std::uint32_t pick = rng_.range(0, 9);
-            const Nanos window = pick < 6   ? 16'000'000
-                                 : pick < 8 ? 1'000'000
-                                            : rng_.range(2, 15) * 1'000'000LL;
+            Nanos window = usb_timer_;
+            if (window == 0) {
+                const std::uint32_t pick = rng_.range(0, 9);
+                window = pick < 6   ? 16'000'000
+                         : pick < 8 ? 1'000'000
+                                    : rng_.range(2, 15) * 1'000'000LL;
+            }
             deadline_ = end + window;
         }
         chunk_.bytes.push_back(b);
@@ -250,9 +269,13 @@ class Adapter {
     Rng& rng_;
     const std::function<void(const Chunk&)>& out_;
     TrafficStats& stats_;
+    static constexpr std::size_t kFifoTrigger = 14;
     bool per_byte_;
+    Nanos usb_timer_;
+    Nanos fifo_timeout_;  // 0: not a UART's FIFO
     Chunk chunk_;
     Nanos deadline_ = 0;
+    Nanos last_end_ = 0;
 };
 
 // One transaction of TrafficOptions::all_slaves_functions: the n-th of the rounds over
@@ -275,18 +298,19 @@ TrafficStats generate_traffic(const TrafficOptions& options,
                               const std::function<void(const SentFrame&)>& on_sent) {
     TrafficStats stats;
     Rng rng(options.seed);
-    Adapter adapter(rng, on_chunk, stats, options.per_byte);
+    Adapter adapter(rng, on_chunk, stats, options);
     const Nanos char_time = char_time_8n1(options.baud);
     // t3.5 as the spec has it, fixed at 1.75 ms above 19200 baud.
     const Nanos t35 = options.baud > 19200 ? 1'750'000 : 35 * char_time / 10;
     Nanos now = kStart;
 
-    auto send = [&](const Bytes& frame, SentFrame::What what, bool damaged = false) {
+    auto send = [&](const Bytes& frame, SentFrame::What what, bool damaged = false,
+                    std::size_t flipped = 0) {
         for (const std::uint8_t b : frame) {
             now += char_time;
             adapter.byte(b, now);
         }
-        if (on_sent) on_sent({what, frame, damaged});
+        if (on_sent) on_sent({what, frame, damaged, flipped});
     };
 
     for (std::uint64_t n = 0; stats.frames < options.frames; ++n) {
@@ -308,16 +332,24 @@ TrafficStats generate_traffic(const TrafficOptions& options,
         auto any_byte = [&](const Bytes& b) {
             return rng.range(0, static_cast<std::uint32_t>(b.size() - 1));
         };
-        const bool request_damaged = rng.chance(5);
-        if (request_damaged) t.request[any_byte(t.request)] ^= 0x10;
-        const bool answer_damaged = !t.answer.empty() && rng.chance(5);
-        if (answer_damaged) t.answer[any_byte(t.answer)] ^= 0x04;
+        const bool request_damaged = rng.chance(options.damaged_per_mille);
+        std::size_t request_flipped = 0;
+        if (request_damaged) {
+            request_flipped = any_byte(t.request);
+            t.request[request_flipped] ^= 0x10;
+        }
+        const bool answer_damaged = !t.answer.empty() && rng.chance(options.damaged_per_mille);
+        std::size_t answer_flipped = 0;
+        if (answer_damaged) {
+            answer_flipped = any_byte(t.answer);
+            t.answer[answer_flipped] ^= 0x04;
+        }
 
-        send(t.request, SentFrame::What::request, request_damaged);
+        send(t.request, SentFrame::What::request, request_damaged, request_flipped);
         ++stats.frames;
         if (!t.answer.empty()) {
             now += t.turnaround;
-            send(t.answer, SentFrame::What::answer, answer_damaged);
+            send(t.answer, SentFrame::What::answer, answer_damaged, answer_flipped);
             ++stats.frames;
             // The slave's RS-485 driver switching off leaves a junk byte behind.
             if (rng.chance(3)) {

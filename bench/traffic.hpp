@@ -3,6 +3,7 @@
 // Deterministic for a given seed on every platform (own PRNG, no <random> distributions).
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <functional>
 #include <string>
@@ -22,6 +23,14 @@ struct TrafficOptions {
     // Each byte a chunk of its own, timed when it ended, instead of a USB adapter's
     // batches: a logic analyser's export, like the captures in captures/realdata.
     bool per_byte = false;
+    // Instead of the USB mix, one adapter's way: a latency timer of this length (an FTDI
+    // chip's: 16 ms by default, 1 ms in low-latency mode) for every batch; or a 16550
+    // UART's FIFO, handed over at its trigger level (14 bytes) or once the line has been
+    // quiet for 4 characters (its receive timeout), each byte's time as the UART's.
+    Nanos usb_timer = 0;
+    bool uart_fifo = false;
+    // Frames with a bit flipped on the line, per thousand requests and per thousand answers.
+    std::uint32_t damaged_per_mille = 5;
 };
 
 struct TrafficStats {
@@ -42,6 +51,7 @@ struct SentFrame {
     What what = What::request;
     std::vector<std::uint8_t> bytes;  // as on the line, damage included
     bool damaged = false;             // a bit flipped on the line: its CRC cannot check
+    std::size_t flipped = 0;          // damaged: the byte whose bit flipped
 };
 
 // Calls `on_chunk` for every chunk in time order. Chunks carry the time their last byte

@@ -16,8 +16,10 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <deque>
 
 #include "decode/record_decoder.hpp"
+#include "framing/batching.hpp"
 #include "framing/framer.hpp"
 #include "framing/line_check.hpp"
 #include "output/sinks.hpp"
@@ -83,6 +85,28 @@ Status run_pipeline(ChunkSource& source, const PipelineOptions& options, RecordS
                           : bus_line               ? BaudOrigin::profiles
                                                    : BaudOrigin::assumed;
     if (options.bus != nullptr) session.devices = options.bus->map_text();
+
+    // How the input batches its bytes, learned from its first chunks: said in the header,
+    // and how long a silence must be to prove a frame's end. A file is read ahead that
+    // far; a live input is learned as it comes.
+    const auto stop_requested = [&] { return options.stop != nullptr && options.stop->load(); };
+    const bool learns_batching = session.source.timed && !session.source.chunk_time_is_start;
+    BatchingLearner learner(session.line.char_time());
+    std::deque<Chunk> read_ahead;
+    std::optional<Status> read_ahead_end;  // what the source said after the chunks read ahead
+    if (learns_batching && !options.live) {
+        Chunk chunk;
+        while (!learner.settled() && !stop_requested()) {
+            Result<bool> more = source.next(chunk);
+            if (!more.ok() || !*more) {
+                read_ahead_end = more.ok() ? ok_status() : Status{more.error()};
+                break;
+            }
+            learner.chunk(chunk);
+            read_ahead.push_back(chunk);
+        }
+        session.batching = learner.verdict().text();
+    }
     sink.begin(session);
 
     Totals totals;
@@ -101,6 +125,7 @@ Status run_pipeline(ChunkSource& source, const PipelineOptions& options, RecordS
     framer_options.chunk_is_line = session.source.chunk_is_line;
     framer_options.rules = rules;
     framer_options.expectation = &transactions;
+    framer_options.batch_hold = learner.verdict().hold;
     // Whether the input looks like RTU at these settings: said at the end, nothing dropped.
     LineCheck line_check(session.line);
     Framer framer(framer_options, [&](Frame& frame) {
@@ -108,12 +133,23 @@ Status run_pipeline(ChunkSource& source, const PipelineOptions& options, RecordS
         transactions.push(frame);
     });
 
-    const auto stop_requested = [&] { return options.stop != nullptr && options.stop->load(); };
+    const auto next_chunk = [&](Chunk& chunk) -> Result<bool> {
+        if (!read_ahead.empty()) {
+            chunk = std::move(read_ahead.front());
+            read_ahead.pop_front();
+            return true;
+        }
+        if (read_ahead_end) {
+            if (!read_ahead_end->ok()) return read_ahead_end->error();
+            return false;
+        }
+        return source.next(chunk);
+    };
     Chunk chunk;
     Status status = ok_status();
     for (;;) {
         if (stop_requested()) break;
-        Result<bool> more = source.next(chunk);
+        Result<bool> more = next_chunk(chunk);
         if (!more.ok()) {
             if (!stop_requested()) status = more.error();
             break;
@@ -137,6 +173,10 @@ Status run_pipeline(ChunkSource& source, const PipelineOptions& options, RecordS
             continue;
         }
         line_check.chunk(chunk);
+        if (learns_batching && options.live && !learner.settled()) {
+            learner.chunk(chunk);
+            if (learner.settled()) framer.set_batch_hold(learner.verdict().hold);
+        }
         framer.push(chunk);
     }
     // A live input does not end: it is stopped, and what was on the line then is cut; so
@@ -145,6 +185,10 @@ Status run_pipeline(ChunkSource& source, const PipelineOptions& options, RecordS
     framer.finish(stopped);
     transactions.finish(stopped);
     totals.remarks = source.remarks();
+    // Learned too late for the header: a live input's.
+    if (const std::string said = learner.verdict().text(); !said.empty() && session.batching.empty()) {
+        totals.remarks.push_back("the input came in " + said);
+    }
     for (std::string& remark : line_check.remarks()) totals.remarks.push_back(std::move(remark));
     sink.end(totals, totals.remarks);
     if (totals_out != nullptr) *totals_out = totals;

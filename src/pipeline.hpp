@@ -43,6 +43,9 @@ struct SessionInfo {
     LineSettings line;    // in effect after header and options
     BaudOrigin baud_origin = BaudOrigin::assumed;
     std::string devices;  // the bus map, "zb-uvi485 on 1, 2; pdu485 on 3"; empty without
+    // How the input batches its bytes when that hides silences (framing/batching.hpp):
+    // "chunks every 16 ms: silences under 16 ms cannot be seen"; empty otherwise.
+    std::string batching;
 };
 
 // Counts for the closing summary.

@@ -677,7 +677,27 @@ void Framer::classify_unframed(std::size_t from, std::size_t to) {
     const bool timed = has_time(byte_end(from));
     std::size_t start = from;
     while (start < to) {
+        Reading reading = Reading::unknown;
+        if (const std::size_t n = damaged_frame_length(start, to, false, reading); n != 0) {
+            const auto frame = std::span(bytes_).subspan(start, n);
+            emit(start, n, RecordClass::invalid, reading,
+                 gap_before(start + n) ? Delimiter::gap : Delimiter::length_crc,
+                 check_crc(frame));
+            start += n;
+            continue;
+        }
         std::size_t end = gap_after(start, to);
+        // A frame whose CRC fails may begin after a few stray bytes (a driver's junk byte):
+        // one that ends just where the next frame or a proven silence begins, before the
+        // next proven silence.
+        const std::size_t search_end = std::min(to, start + kMaxAdu);
+        for (std::size_t at = start + 1; at + kMinAdu <= search_end; ++at) {
+            if (proven_gap_before(at)) break;
+            if (damaged_frame_length(at, to, true, reading) != 0) {
+                end = std::min(end, at);
+                break;
+            }
+        }
         if (options_.chunk_is_line) end = end_of_unframed_lines(start, end);
         const std::size_t n = end - start;
         const auto piece = std::span(bytes_).subspan(start, n);
@@ -724,6 +744,63 @@ void Framer::classify_unframed(std::size_t from, std::size_t to) {
         }
         start = end;
     }
+}
+
+bool Framer::proven_gap_before(std::size_t at) const {
+    if (at >= bytes_.size()) return false;
+    const Piece& piece = piece_of(at);
+    if (piece.first != base_ + at) return false;
+    if (piece.starts_frame || piece.gap == kBoundary) return true;
+    return is_measured(piece.gap) && piece.gap >= t35_ + options_.batch_hold;
+}
+
+std::size_t Framer::damaged_frame_length(std::size_t start, std::size_t to, bool at_boundary_only,
+                                         Reading& reading) const {
+    const std::size_t avail = to - start;
+    if (avail < kMinAdu) return 0;
+    const auto head = std::span(bytes_).subspan(start, std::min(avail, kMaxAdu));
+    const FrameLengths lengths = options_.rules->frame_lengths(head);
+    const bool answer_first = expects_answer_at(start, head);
+    // A request whose quantity the function does not allow, or an answer to a read that
+    // nobody asked for or that holds no data, is unlikely.
+    const FunctionSpec& spec = options_.rules->function(head[0], head[1]);
+    const bool reads = spec.access == DataAccess::read && spec.max_quantity != 0;
+    const unsigned quantity = head.size() < 6 ? 0U : (unsigned{head[4]} << 8U) | head[5];
+    const bool request_plausible = spec.max_quantity == 0 || head.size() < 6 ||
+                                   (quantity >= 1 && quantity <= spec.max_quantity);
+    const AwaitedAnswer* awaited =
+        options_.expectation != nullptr ? options_.expectation->awaited(byte_end(start)) : nullptr;
+    // The slave's address may be the byte that took the hit: the function is enough.
+    const bool response_plausible =
+        (head[1] & 0x80U) != 0 || !reads ||
+        (head[2] != 0 && awaited != nullptr && awaited->function == head[1]);
+    std::size_t chosen = 0;
+    int chosen_rank = -1;
+    for (const Role role : {answer_first ? Role::response : Role::request,
+                            answer_first ? Role::request : Role::response}) {
+        const FrameLength& length = lengths.of(role);
+        if (!length.fixed_within(head.size()) || length.bytes < kMinAdu) continue;
+        const std::size_t end = start + length.bytes;
+        // Only a silence the batching cannot have made cuts it shorter.
+        bool proven = false;
+        for (std::size_t gap = gap_after(start, end); gap < end && !proven;
+             gap = gap_after(gap, end)) {
+            proven = proven_gap_before(gap);
+        }
+        if (proven) continue;
+        // Where both readings fit, the one that ends where the next frame or a proven
+        // silence begins.
+        const bool at_boundary = end == to || proven_gap_before(end);
+        if (at_boundary_only && !at_boundary) continue;
+        const bool plausible = role == Role::response ? response_plausible : request_plausible;
+        const int rank = (at_boundary ? 2 : 0) + (plausible ? 1 : 0);
+        if (rank > chosen_rank) {
+            chosen = length.bytes;
+            chosen_rank = rank;
+            reading = reading_for(role, head[1]);
+        }
+    }
+    return chosen;
 }
 
 std::size_t Framer::end_of_unframed_lines(std::size_t start, std::size_t end) const {

@@ -36,6 +36,10 @@ struct FramerOptions {
     // master's requests, chunks of any other channel the slaves' answers. Chunks without
     // a channel are told apart by shape and order as usual.
     std::string request_channel = "master";
+    // How much later than it ended the input may hand a byte over (framing/batching.hpp):
+    // a silence measured between chunks proves a frame's end only when it exceeds t3.5 by
+    // this much.
+    Nanos batch_hold = 0;
 };
 
 class Framer {
@@ -63,6 +67,8 @@ class Framer {
     // not end, the run was stopped (a live run, a signal): bytes at the end that form no
     // whole frame were cut by the stop, not broken on the line, and are noted so.
     void finish(bool stopped = false);
+    // What was learned of the input's batching since (live input: after the first chunks).
+    void set_batch_hold(Nanos hold) { options_.batch_hold = hold; }
 
   private:
     enum class Outcome : std::uint8_t { frame, no_frame, need_more };
@@ -103,6 +109,14 @@ class Framer {
     // A silence (or the start of the input or of a channel) of at least t3.5.
     [[nodiscard]] bool ends_frame(Nanos gap) const { return gap != kNoTime && gap >= t35_; }
     void classify_unframed(std::size_t from, std::size_t to);
+    // A silence at `at` that batching cannot have made up (FramerOptions::batch_hold).
+    [[nodiscard]] bool proven_gap_before(std::size_t at) const;
+    // The length of a frame whose CRC fails at `start`, before `to` (where the next frame
+    // starts): the length its function code (and byte count) gives, with no proven silence
+    // inside; with `at_boundary_only`, only one that ends at `to` or a proven silence.
+    // 0 when none fits. Its reading is set in `reading`.
+    [[nodiscard]] std::size_t damaged_frame_length(std::size_t start, std::size_t to,
+                                                   bool at_boundary_only, Reading& reading) const;
     // Hex logs: where bytes from `start` that form no frame end, at most at `end`: after
     // the fewest whole lines that have a frame's shape or a right CRC (a frame with a
     // wrong CRC over several lines), else at the end of the line `start` is in.

@@ -91,10 +91,11 @@ class TextSink final : public RecordSink {
             time_width_ = kTimeColumn + 2;  // "1763798400.001667"
         }
         const LineSettings& line = s.line;
-        fmt::print(out_.file(), "{}: {} input, {} {} (t1.5 {:.2f} ms, t3.5 {:.2f} ms){}\n",
+        fmt::print(out_.file(), "{}: {} input, {} {} (t1.5 {:.2f} ms, t3.5 {:.2f} ms){}{}{}\n",
                    s.source.name, s.source.format, line.baud, line.format(),
                    static_cast<double>(line.t15()) / 1e6, static_cast<double>(line.t35()) / 1e6,
-                   s.source.timed ? "" : ", no timing");
+                   s.source.timed ? "" : ", no timing", s.batching.empty() ? "" : "; ",
+                   s.batching);
         if (!s.devices.empty()) fmt::print(out_.file(), "devices: {}\n", s.devices);
     }
 
