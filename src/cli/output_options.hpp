@@ -40,6 +40,7 @@ struct OutputArgs {
     bool no_color = false;
     BusArgs bus;
     std::vector<std::string> quick_types;  // --as SLAVE[:TABLE]:ADDR=TYPE
+    bool guess = false;                    // --guess
 };
 
 void add_output_options(CLI::App& cmd, OutputArgs& args);
