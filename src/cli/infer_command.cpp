@@ -2,7 +2,9 @@
 
 #include <fmt/format.h>
 
+#include <cerrno>
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <memory>
 #include <string>
@@ -15,7 +17,6 @@
 #include "input/joined_source.hpp"
 #include "output/filter.hpp"
 #include "output_options.hpp"
-#include "util/output_file.hpp"
 
 namespace rtuscope::cli {
 namespace {

@@ -74,7 +74,7 @@ void PollMapBuilder::add(const Record& record) {
     const std::span<const std::uint8_t> request =
         answer ? pdu_of(record.request, record.frame.transport) : record.frame.pdu();
     if (request.empty() || function_table(request[0]) == nullptr) return;
-    const std::uint8_t slave = answer ? record.frame.slave() : record.frame.slave();
+    const std::uint8_t slave = record.frame.slave();
     if (answer && (record.frame.pdu().empty() || record.frame.pdu()[0] != request[0])) return;
     SlaveTraffic& traffic = slaves_[slave];
     traffic.slave = slave;
@@ -161,7 +161,7 @@ void PollMapBuilder::add_write(SlaveTraffic& slave, std::span<const std::uint8_t
         }
         return;
     }
-    if (byte_count != 2U * count) return;
+    if (byte_count != std::size_t{2} * count) return;
     for (std::size_t i = 0; i < count; ++i) written(static_cast<std::uint32_t>(start + i), word_at(data, 2 * i));
 }
 

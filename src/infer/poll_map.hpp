@@ -7,7 +7,9 @@
 #include <compare>
 #include <cstdint>
 #include <map>
+#include <span>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include "pairing/transactions.hpp"
@@ -24,7 +26,7 @@ bool is_bit_table(Table table);
 struct RegisterKey {
     Table table = Table::holding;
     std::uint16_t address = 0;
-    auto operator<=>(const RegisterKey&) const = default;
+    auto operator<=>(const RegisterKey&) const = default;  // NOLINT(modernize-use-nullptr)
 };
 
 // One value of one register (or bit: 0 or 1), from one answer.
