@@ -201,6 +201,17 @@ Status use_capture_header(Bus& bus, const SourceInfo& input, const OutputArgs& a
     return ok_status();
 }
 
+// Without --device or --bus, a user's profile for one address only (`addresses = [3, 3]`,
+// as `profiles infer` writes them) goes on that slave, unless the capture header put
+// another there: `decode --profile draft.toml` uses a draft at once.
+void assign_one_address_profiles(Bus& bus) {
+    for (const Profile* p : bus.profiles()) {
+        if (p->file.starts_with("<bundled>") || p->first_address != p->last_address) continue;
+        if (bus.profile_for(p->first_address) != nullptr) continue;
+        (void)bus.assign(p->first_address, p->name);
+    }
+}
+
 // --baud or --format over a capture header that gives the line: said, not silent.
 void note_line_replaced(const SourceInfo& input, const OutputArgs& args) {
     if (!input.line || (args.baud.empty() && args.format.empty())) return;
@@ -282,6 +293,7 @@ std::optional<Decoding> prepare_decoding(const OutputArgs& args, int& exit_code,
         if (Status s = use_capture_header(*d.bus, *input, args); !s) return fail(s.error(), 1);
         note_line_replaced(*input, args);
     }
+    if (args.bus.devices.empty() && args.bus.bus_file.empty()) assign_one_address_profiles(*d.bus);
     apply_quick_types(*d.bus, quick_types);
     if (!d.bus->empty()) d.options.bus = d.bus.get();
     d.options.guess = args.guess;
