@@ -113,7 +113,7 @@
       title: title,
       width: chartWidth,
       height: height || 220,
-      scales: { x: { time: data.clock !== "none" } },
+      scales: { x: { time: data.clock !== "none" }, "%": { range: [0, 100] } },
       cursor: { sync: { key: "rtuscope" } },
       series: [{ label: "time", value: function (u, v) { return v === null ? "-" : timeText(v); } }].concat(series),
       axes: [{}, { label: yLabel, size: 60 }].concat(series.some(function (s) { return s.scale === "%"; })
@@ -211,24 +211,26 @@
   if (bus.timed && bus.utilisation_pct === null && bus.bytes > 0) {
     anomalies.push({ score: 90, text: "the bytes take longer than the capture lasts at " + bus.line + ": the baud rate is wrong" });
   }
-  // A slave that slows for a while (every evening, say): the mean turnaround of each tenth
-  // of the timeline, the slowest tenth against the fastest.
+  // A slave that slows for a while (every evening, say): the median of each tenth of the
+  // timeline's turnaround points (one slow answer moves no median), the slowest tenth
+  // against the fastest.
   for (const s of data.slaves) {
     const parts = [];
     const tenth = Math.max(1, Math.ceil(s.turnaround_mean_ms.length / 10));
     for (let from = 0; from < s.turnaround_mean_ms.length; from += tenth) {
-      let sum = 0, n = 0;
+      const points = [];
       for (let i = from; i < Math.min(from + tenth, s.turnaround_mean_ms.length); i++) {
-        if (s.turnaround_mean_ms[i] !== null) { sum += s.turnaround_mean_ms[i]; n += 1; }
+        if (s.turnaround_mean_ms[i] !== null) points.push(s.turnaround_mean_ms[i]);
       }
-      if (n > 0) parts.push({ mean: sum / n, t: xs[from] });
+      points.sort(function (a, b) { return a - b; });
+      if (points.length >= 5) parts.push({ mean: points[Math.floor(points.length / 2)], t: xs[from] });
     }
     if (parts.length < 3) continue;
     const fastest = parts.reduce(function (a, b) { return b.mean < a.mean ? b : a; });
     const slowest = parts.reduce(function (a, b) { return b.mean > a.mean ? b : a; });
     if (slowest.mean > 1.5 * fastest.mean && slowest.mean - fastest.mean > 2) {
       anomalies.push({ score: Math.min(80, 20 * slowest.mean / Math.max(fastest.mean, 0.001)), t: slowest.t,
-        text: "slave " + s.slave + " slows down: mean turnaround " + num(slowest.mean, 1) + " ms against " +
+        text: "slave " + s.slave + " slows down: median turnaround " + num(slowest.mean, 1) + " ms against " +
           num(fastest.mean, 1) + " ms at its fastest; the slowest tenth of the capture from" });
     }
   }
