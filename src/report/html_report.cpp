@@ -372,7 +372,11 @@ void ReportSink::idle(Nanos /*now*/) {
 }
 
 void ReportSink::write_if_asked() {
-    if (write_now_ == nullptr || !write_now_->exchange(false)) return;
+    // A load first: the exchange, a write, is paid only when the flag is set.
+    if (write_now_ == nullptr || !write_now_->load(std::memory_order_relaxed) ||
+        !write_now_->exchange(false)) {
+        return;
+    }
     // The run goes on: the page is of a finished copy of the figures so far.
     BusStats so_far = stats_;
     so_far.finish();

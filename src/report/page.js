@@ -71,6 +71,8 @@
   function checkAllDrawn() {
     if (allCreated && drawn === created && document.body.getAttribute("data-all-drawn") !== "yes") {
       document.body.setAttribute("data-all-drawn", "yes");
+      // Milliseconds from the page's start until its last chart drew (docs/performance.md).
+      document.body.setAttribute("data-drawn-ms", String(Math.round(performance.now())));
     }
   }
   function syncScale(u, key) {
@@ -126,7 +128,9 @@
     return u;
   }
   function line(label, color, extra) {
-    const s = { label: label, stroke: color, width: 1.5, spanGaps: false };
+    // Polled figures come a point every few buckets: the line joins them across the
+    // empty buckets between.
+    const s = { label: label, stroke: color, width: 1.5, spanGaps: true };
     return Object.assign(s, extra || {});
   }
   function zoomTo(t) {

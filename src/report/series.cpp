@@ -185,7 +185,7 @@ void Series::count_values(const Record& record, std::size_t bucket) {
     for (const DecodedValue& v : record.values) {
         const std::optional<double> number = number_of(v.value);
         if (!number) continue;
-        const auto key = std::make_tuple(record.frame.slave(), v.address, v.name);
+        const std::uint32_t key = record.frame.slave() * 65536U + v.address;
         auto it = value_index_.find(key);
         if (it == value_index_.end()) {
             if (values_.size() >= kMaxValueSeries) {

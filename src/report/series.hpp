@@ -16,7 +16,6 @@
 #include <map>
 #include <optional>
 #include <string>
-#include <tuple>
 #include <vector>
 
 #include "pipeline.hpp"
@@ -152,7 +151,8 @@ class Series {
     // A request's last time per poll (as stats/ keys polls), for the cycle; at most
     // BusStats::kMaxPolls, later polls have no cycle drawn.
     std::map<PollKey, Nanos> poll_last_;
-    std::map<std::tuple<std::uint8_t, std::uint16_t, std::string>, std::size_t> value_index_;
+    // By slave * 65536 + address: a register's name comes with its address.
+    std::map<std::uint32_t, std::size_t> value_index_;
     std::vector<ValueSeries> values_;
     std::uint64_t values_left_out_ = 0;
     std::vector<FlaggedRecord> flagged_;
