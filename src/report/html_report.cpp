@@ -122,7 +122,9 @@ void append_bus(std::string& out, const Series& series, std::size_t n) {
 void append_slaves(std::string& out, const Series& series, std::size_t n) {
     out += "\"slaves\":[";
     bool first = true;
-    for (const auto& [slave, s] : series.slaves()) {
+    for (const auto& entry : series.slaves()) {
+        const std::uint8_t slave = entry.first;
+        const SlaveSeries& s = entry.second;
         const auto& b = s.buckets;
         const auto bucket = [&](std::size_t i) -> const SlaveBucket* {
             return i < b.size() ? &b[i] : nullptr;
@@ -291,7 +293,7 @@ std::string series_json(const BusStats& stats, const Series& series,
 // The template's {{NAME}} marks, each replaced by its part.
 std::string fill(std::string_view page, const std::vector<std::pair<std::string_view, std::string_view>>& parts) {
     std::string out;
-    out.reserve(page.size() + 64 * 1024);
+    out.reserve(page.size());
     std::size_t at = 0;
     while (at < page.size()) {
         const std::size_t open = page.find("{{", at);
