@@ -149,6 +149,12 @@ void add_stats_options(CLI::App& cmd, OutputArgs& args) {
     add_guess_option(cmd, args);
 }
 
+void add_report_input_options(CLI::App& cmd, OutputArgs& args) {
+    add_line_options(cmd, args);
+    add_filter_options(cmd, args);
+    add_device_options(cmd, args);
+}
+
 void add_rtu_port_option(CLI::App& cmd, std::vector<std::uint16_t>& ports) {
     cmd.add_option("--rtu-port", ports,
                    "pcap: TCP/UDP port whose payloads are Modbus RTU even where no CRC checks "
@@ -328,6 +334,7 @@ std::optional<Decoding> prepare_decoding(const OutputArgs& args, int& exit_code,
     }
     d.from = filter.from;
     d.to = filter.to;
+    d.filter = filter;
 
     // A file or a pipe takes the output in large blocks (a terminal keeps its lines); live
     // runs flush after every record anyway. 64 KiB, as the sinks' own blocks: a larger
