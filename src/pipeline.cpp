@@ -114,7 +114,7 @@ Status run_pipeline(ChunkSource& source, const PipelineOptions& options, RecordS
     if (options.bus != nullptr) bus_rules.emplace(*options.bus);
     const ProtocolRules* rules = bus_rules ? &*bus_rules : &standard_rules();
     Transactions transactions({options.timeout, rules}, [&](Record&& record) {
-        decode_record(record, *rules, options.bus);
+        decode_record(record, *rules, options.bus, options.guess);
         count_record(totals, record);
         sink.record(record);
         if (options.live) sink.flush();

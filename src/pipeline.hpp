@@ -22,6 +22,7 @@ struct PipelineOptions {
     std::optional<LineSettings> format;  // data/parity/stop bits; overrides the header
     Nanos timeout = kNanosPerSecond;
     const Bus* bus = nullptr;  // which slave is which device; none: standard decoding only
+    bool guess = false;        // --guess: readings of the registers no profile covers
     // Live input (a tty): every record is flushed to the sink's output as soon as it is
     // decided, and what is buffered is decided once the line has been quiet for t3.5
     // plus this margin. The margin covers USB adapters, which hand over bytes in batches

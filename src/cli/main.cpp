@@ -15,6 +15,7 @@
 #include "detect_command.hpp"
 #include "output/block_output.hpp"
 #include "profiles_command.hpp"
+#include "report_command.hpp"
 #include "sniff_command.hpp"
 #include "util/near_names.hpp"
 #include "watch_command.hpp"
@@ -89,6 +90,7 @@ int run(int argc, char** argv) {
     int exit_code = 0;
     rtuscope::cli::add_decode_command(app, exit_code);
     rtuscope::cli::add_stats_command(app, exit_code);
+    rtuscope::cli::add_report_command(app, exit_code);
     rtuscope::cli::add_sniff_command(app, exit_code);
     rtuscope::cli::add_demo_command(app, exit_code);
     rtuscope::cli::add_watch_command(app, exit_code);

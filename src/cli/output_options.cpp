@@ -72,6 +72,16 @@ void add_device_options(CLI::App& cmd, OutputArgs& args) {
         ->type_name("SLAVE[:TABLE]:ADDR=TYPE");
 }
 
+// Guesses are shown with the values (text, values CSV, JSONL); `stats` takes the option
+// too, so that a decode's command line still works there, and shows no values.
+void add_guess_option(CLI::App& cmd, OutputArgs& args) {
+    cmd.add_flag("--guess", args.guess,
+                 "Show the plausible readings of registers no profile (nor --as) covers: each "
+                 "register as u16 (and i16 when negative), each two adjacent registers as "
+                 "u32 and f32 in both word orders (abcd, cdab), floats that make no sense "
+                 "left out; marked as guesses");
+}
+
 TimeFormat time_format(const std::string& letters) {
     if (letters == "ad") return TimeFormat::local_date;
     if (letters == "u") return TimeFormat::utc;
@@ -87,8 +97,8 @@ TimeFormat time_format(const std::string& letters) {
 void add_output_options(CLI::App& cmd, OutputArgs& args) {
     auto* csv = cmd.add_flag("--csv", args.csv, "Print the per-frame CSV instead of text");
     auto* values = cmd.add_flag("--values-csv", args.values_csv,
-                                "Print one CSV row per register value (needs --device, --bus or --as) "
-                                "instead of text");
+                                "Print one CSV row per register value (needs --device, --bus, --as "
+                                "or --guess) instead of text");
     values->excludes(csv);
     cmd.add_flag("--jsonl", args.jsonl,
                  "Print one JSON object per record (JSON Lines; schema in docs/formats.md)")
@@ -105,6 +115,7 @@ void add_output_options(CLI::App& cmd, OutputArgs& args) {
     add_display_options(cmd, args);
     add_filter_options(cmd, args);
     add_device_options(cmd, args);
+    add_guess_option(cmd, args);
 }
 
 // The text's look. `stats` takes them too, so that a decode's command line still works
@@ -133,6 +144,13 @@ void add_stats_options(CLI::App& cmd, OutputArgs& args) {
         ->check(CLI::NonNegativeNumber);
     add_line_options(cmd, args);
     add_display_options(cmd, args);
+    add_filter_options(cmd, args);
+    add_device_options(cmd, args);
+    add_guess_option(cmd, args);
+}
+
+void add_report_input_options(CLI::App& cmd, OutputArgs& args) {
+    add_line_options(cmd, args);
     add_filter_options(cmd, args);
     add_device_options(cmd, args);
 }
@@ -187,6 +205,17 @@ Status use_capture_header(Bus& bus, const SourceInfo& input, const OutputArgs& a
         }
     }
     return ok_status();
+}
+
+// Without --device or --bus, a user's profile for one address only (`addresses = [3, 3]`,
+// as `profiles infer` writes them) goes on that slave, unless the capture header put
+// another there: `decode --profile draft.toml` uses a draft at once.
+void assign_one_address_profiles(Bus& bus) {
+    for (const Profile* p : bus.profiles()) {
+        if (p->file.starts_with("<bundled>") || p->first_address != p->last_address) continue;
+        if (bus.profile_for(p->first_address) != nullptr) continue;
+        (void)bus.assign(p->first_address, p->name);
+    }
 }
 
 // --baud or --format over a capture header that gives the line: said, not silent.
@@ -270,11 +299,13 @@ std::optional<Decoding> prepare_decoding(const OutputArgs& args, int& exit_code,
         if (Status s = use_capture_header(*d.bus, *input, args); !s) return fail(s.error(), 1);
         note_line_replaced(*input, args);
     }
+    if (args.bus.devices.empty() && args.bus.bus_file.empty()) assign_one_address_profiles(*d.bus);
     apply_quick_types(*d.bus, quick_types);
     if (!d.bus->empty()) d.options.bus = d.bus.get();
-    if (args.values_csv && d.options.bus == nullptr) {
+    d.options.guess = args.guess;
+    if (args.values_csv && d.options.bus == nullptr && !args.guess) {
         return fail(Error{"--values-csv needs to know the devices: --device ADDR=PROFILE, "
-                          "--bus FILE or --as SLAVE:ADDR=TYPE"},
+                          "--bus FILE or --as SLAVE:ADDR=TYPE (or --guess)"},
                     2);
     }
 
@@ -303,6 +334,7 @@ std::optional<Decoding> prepare_decoding(const OutputArgs& args, int& exit_code,
     }
     d.from = filter.from;
     d.to = filter.to;
+    d.filter = filter;
 
     // A file or a pipe takes the output in large blocks (a terminal keeps its lines); live
     // runs flush after every record anyway. 64 KiB, as the sinks' own blocks: a larger

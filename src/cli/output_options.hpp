@@ -15,6 +15,10 @@
 #include "pipeline.hpp"
 #include "stats/report.hpp"
 
+namespace rtuscope::report {
+class ReportSink;
+}
+
 namespace rtuscope::cli {
 
 struct OutputArgs {
@@ -40,6 +44,7 @@ struct OutputArgs {
     bool no_color = false;
     BusArgs bus;
     std::vector<std::string> quick_types;  // --as SLAVE[:TABLE]:ADDR=TYPE
+    bool guess = false;                    // --guess
 };
 
 void add_output_options(CLI::App& cmd, OutputArgs& args);
@@ -49,6 +54,8 @@ void add_display_options(CLI::App& cmd, OutputArgs& args);
 void add_rtu_port_option(CLI::App& cmd, std::vector<std::uint16_t>& ports);
 // watch's: line, timeout, --no-color, bus map.
 void add_watch_options(CLI::App& cmd, OutputArgs& args);
+// The report command's: line, timeout, filters, bus map.
+void add_report_input_options(CLI::App& cmd, OutputArgs& args);
 // The statistics command's subset: formats, line, timeout, display, filters, bus map.
 void add_stats_options(CLI::App& cmd, OutputArgs& args);
 
@@ -60,6 +67,10 @@ struct Decoding {
     std::unique_ptr<RecordSink> sink;
     PcapSink* pcap = nullptr;  // inside `sink`, when --pcap was given
     PcapngSink* pcapng = nullptr;  // inside `sink`, when --pcapng was given
+    // --slave, --function, --kind, --from and --to: `sink` has them; a sink added later
+    // (--report) takes them too.
+    RecordFilter filter;
+    report::ReportSink* report = nullptr;  // inside `sink`, when --report was given
     // --from and --to as given, to be checked against the input's times once it is open.
     std::optional<TimeBound> from;
     std::optional<TimeBound> to;

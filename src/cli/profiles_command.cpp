@@ -7,6 +7,7 @@
 #include "bus_options.hpp"
 #include "decode/pdu_decoders.hpp"
 #include "errors.hpp"
+#include "infer_command.hpp"
 #include "util/text.hpp"
 #include "util/text_file.hpp"
 
@@ -215,7 +216,7 @@ int check_files(const BusArgs& args, const std::vector<std::string>& files) {
 }  // namespace
 
 void add_profiles_command(CLI::App& app, int& exit_code) {
-    CLI::App* cmd = app.add_subcommand("profiles", "List, show and check device profiles");
+    CLI::App* cmd = app.add_subcommand("profiles", "List, show, check and infer device profiles");
     cmd->require_subcommand(1);
 
     auto list_args = std::make_shared<BusArgs>();
@@ -239,6 +240,8 @@ void add_profiles_command(CLI::App& app, int& exit_code) {
     add_profile_options(*check, *check_args);
     check->callback(
         [check_args, files, &exit_code] { exit_code = check_files(*check_args, *files); });
+
+    add_infer_command(*cmd, exit_code);
 }
 
 }  // namespace rtuscope::cli

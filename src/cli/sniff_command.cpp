@@ -21,6 +21,7 @@
 #include "stats/health.hpp"
 #include "util/output_file.hpp"
 #include "output_options.hpp"
+#include "report_command.hpp"
 #include "sim/sim.hpp"
 #include "stop_signals.hpp"
 #include "util/text.hpp"
@@ -75,6 +76,9 @@ void add_recording_options(CLI::App& cmd, LiveArgs& args) {
     cmd.add_flag("--syslog", args.syslog,
                  "Send the daily health line (each local day's counts, at midnight) to syslog "
                  "rather than to stderr");
+    add_report_options(cmd, args.report_file, args.report_flagged,
+                       "Write the bus as one HTML page to FILE (charts, statistics, flagged "
+                       "records; docs/report.md) at the end of the run and on SIGUSR1");
     cmd.add_flag("--reopen", args.reopen,
                  "When the port goes away (an adapter unplugged), wait for it and open it again "
                  "with the same settings, noting the gap, rather than ending with status 1");
@@ -223,6 +227,7 @@ int run_live(const LiveArgs& args, Decoding& decoding, TtyOptions tty) {
     if (recorder) print_recording_summary(*recorder, args);
     if (!status) return print_error(status.error()), 1;
     if (Status pcap = pcap_status(decoding); !pcap) return print_error(pcap.error()), 1;
+    if (Status report = report_status(decoding); !report) return print_error(report.error()), 1;
     return 0;
 }
 
@@ -270,6 +275,9 @@ int run_sniff(SniffArgs args) {
     int exit_code = 0;
     auto decoding = prepare_decoding(args.live.output, exit_code);
     if (!decoding) return exit_code;
+    if (!attach_report(*decoding, args.live.report_file, args.live.report_flagged, exit_code)) {
+        return exit_code;
+    }
     TtyOptions tty;
     tty.ports = args.ports;
     install_stop_handlers();
@@ -293,6 +301,9 @@ int run_demo(DemoArgs args) {
     int exit_code = 0;
     auto decoding = prepare_decoding(args.live.output, exit_code);
     if (!decoding) return exit_code;
+    if (!attach_report(*decoding, args.live.report_file, args.live.report_flagged, exit_code)) {
+        return exit_code;
+    }
     install_stop_handlers();
     auto telemetry = attach_telemetry(args.live.telemetry, "demo", *decoding, exit_code);
     if (!telemetry) return exit_code;

@@ -36,6 +36,8 @@ struct LiveArgs {
     double seconds = 0;  // 0: until stopped
     bool reopen = false;  // --reopen: wait for a port that went away
     bool syslog = false;  // --syslog: the daily health line to syslog, not stderr
+    std::string report_file;  // --report: the HTML page, at the end and on SIGUSR1
+    std::size_t report_flagged = 100;  // --flagged: records the page lists
     // Given what the recording has done, once -w's recorder exists (watch shows it).
     std::function<void(std::function<std::string()>)> on_recording;
     bool detect_line = false;  // --baud auto: find the settings before sniffing

@@ -6,6 +6,7 @@ namespace rtuscope::cli {
 
 std::atomic<bool> g_stop{false};
 std::atomic<bool> g_rotate{false};
+std::atomic<bool> g_report{false};
 
 namespace {
 
@@ -19,6 +20,7 @@ extern "C" void on_stop_signal(int signal) {
 
 extern "C" void on_rotate_signal(int /*signal*/) {
     g_rotate.store(true);
+    g_report.store(true);
 }
 
 }  // namespace

@@ -11,6 +11,9 @@ namespace rtuscope::cli {
 extern std::atomic<bool> g_stop;
 // Set by SIGUSR1: a recording starts its next file (tcpdump users rotate logs so).
 extern std::atomic<bool> g_rotate;
+// Set by SIGUSR1 too: a --report page is written now (the run goes on). Each flag is
+// cleared by its own reader, so one signal both rotates and writes the page.
+extern std::atomic<bool> g_report;
 
 // Installs the handlers. Blocking reads are interrupted (no SA_RESTART), so that a run
 // waiting on an idle pipe or port stops too.

@@ -15,6 +15,7 @@
 #include "input/sources.hpp"
 #include "sniff_command.hpp"
 #include "output/filter.hpp"
+#include "report_command.hpp"
 #include "stop_signals.hpp"
 #include "telemetry_options.hpp"
 #include "watch/watch.hpp"
@@ -79,10 +80,14 @@ int watch_file(const WatchArgs& args, double speed) {
     if (!telemetry) return exit_code;
     const std::unique_ptr<Display> display = make_display(args, true);
     add_watch_sink(*decoding, *telemetry, *display);
+    if (!attach_report(*decoding, args.live.report_file, args.live.report_flagged, exit_code)) {
+        return exit_code;
+    }
     const Status status = run_pipeline(*source, decoding->options, *decoding->sink);
     // The display has ended (a dashboard gave the terminal back): the summaries go there.
     const int telemetry_code = finish_telemetry(*telemetry);
     if (!status) return print_error(status.error()), 1;
+    if (Status report = report_status(*decoding); !report) return print_error(report.error()), 1;
     if (stop_signal() != 0) return 128 + stop_signal();
     return telemetry_code;
 }
@@ -104,6 +109,9 @@ int watch_live(WatchArgs args) {
     if (!telemetry) return exit_code;
     const std::unique_ptr<Display> display = make_display(args, false);
     add_watch_sink(*decoding, *telemetry, *display);
+    if (!attach_report(*decoding, args.live.report_file, args.live.report_flagged, exit_code)) {
+        return exit_code;
+    }
     args.live.on_recording = [&](std::function<std::string()> status) {
         display->set_recording(std::move(status));
     };

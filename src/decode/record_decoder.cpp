@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include "decode/decoder.hpp"
+#include "profiles/guess.hpp"
 #include "profiles/values.hpp"
 
 namespace rtuscope {
@@ -42,7 +43,7 @@ void note_reserved_address(Record& record) {
 
 }  // namespace
 
-void decode_record(Record& record, const ProtocolRules& rules, const Bus* bus) {
+void decode_record(Record& record, const ProtocolRules& rules, const Bus* bus, bool guess) {
     const Frame& frame = record.frame;
     record.profile = bus != nullptr && !frame.bytes.empty() ? bus->owner(frame.slave()) : nullptr;
     if (frame.cls == RecordClass::noise || frame.bytes.size() < 2) return;
@@ -67,6 +68,11 @@ void decode_record(Record& record, const ProtocolRules& rules, const Bus* bus) {
     if (record.profile != nullptr) {
         for (const DataBlock& block : record.decoded.blocks) {
             decode_values(*record.profile, block, record.values);
+        }
+    }
+    if (guess) {
+        for (const DataBlock& block : record.decoded.blocks) {
+            guess_readings(record.profile, block, record.guesses);
         }
     }
 }

@@ -17,7 +17,7 @@ using namespace std::string_view_literals;
 
 // A value as a JSON number when it is a plain decimal ("220.5", "-5.0", "12345"), else
 // as a string (an enum label, bit names, a special write's meaning); null when unknown.
-void append_json_value(std::string& out, const std::string& value) {
+void append_json_value(std::string& out, std::string_view value) {
     if (value.empty()) {
         out += "null"sv;
         return;
@@ -131,21 +131,7 @@ class JsonlSink final : public RecordSink {
         for (std::size_t i = 0; i < r.values.size(); ++i) {
             const DecodedValue& v = r.values[i];
             if (i > 0) line += ',';
-            line += "{\"address\":"sv;
-            append_uint(line, v.address);
-            line += ",\"name\":"sv;
-            if (v.name.empty()) {
-                line += "null"sv;
-            } else {
-                append_json_string(line, v.name);
-            }
-            line += ",\"value\":"sv;
-            append_json_value(line, v.value);
-            line += ",\"unit\":"sv;
-            append_json_string(line, v.unit);
-            line += ",\"raw\":"sv;
-            append_json_string(line, v.raw);
-            line += ",\"flags\":["sv;
+            append_value_object(line, v.address, v.name, v.value, v.unit, v.raw);
             for (std::size_t n = 0; n < v.notes.size(); ++n) {
                 if (n > 0) line += ',';
                 append_json_string(line, v.notes[n].id);
@@ -155,6 +141,16 @@ class JsonlSink final : public RecordSink {
                 if (n > 0) line += ',';
                 append_json_string(line, v.notes[n].text);
             }
+            line += "]}"sv;
+        }
+        // --guess: each reading a value of its own, flagged value.guess.
+        for (std::size_t i = 0; i < r.guesses.size(); ++i) {
+            const GuessedReading& g = r.guesses[i];
+            if (i > 0 || !r.values.empty()) line += ',';
+            append_value_object(line, g.address, reading_name(g.reading), g.value, {}, g.raw);
+            append_json_string(line, note_id::value_guess);
+            line += "],\"notes\":["sv;
+            append_json_string(line, kGuessNoteText);
             line += "]}"sv;
         }
         line += "],\"transport\":\""sv;
@@ -172,6 +168,27 @@ class JsonlSink final : public RecordSink {
     }
 
   private:
+    // A value's keys up to its flags, whose list is left open.
+    static void append_value_object(std::string& line, std::uint16_t address,
+                                    std::string_view name, std::string_view value,
+                                    std::string_view unit, std::string_view raw) {
+        line += "{\"address\":"sv;
+        append_uint(line, address);
+        line += ",\"name\":"sv;
+        if (name.empty()) {
+            line += "null"sv;
+        } else {
+            append_json_string(line, name);
+        }
+        line += ",\"value\":"sv;
+        append_json_value(line, value);
+        line += ",\"unit\":"sv;
+        append_json_string(line, unit);
+        line += ",\"raw\":"sv;
+        append_json_string(line, raw);
+        line += ",\"flags\":["sv;
+    }
+
     BlockOutput out_;
     std::string summary_;  // reused
     FlagColumns flags_;

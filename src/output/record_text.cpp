@@ -65,4 +65,70 @@ std::size_t append_unlisted_run(std::string& out, std::span<const DecodedValue> 
     return end;
 }
 
+namespace {
+
+// The end of the readings of guesses[i]'s register.
+std::size_t readings_end(std::span<const GuessedReading> guesses, std::size_t i) {
+    std::size_t end = i;
+    while (end < guesses.size() && guesses[end].address == guesses[i].address) ++end;
+    return end;
+}
+
+bool all_zero(std::span<const GuessedReading> guesses, std::size_t from, std::size_t to) {
+    for (std::size_t k = from; k < to; ++k) {
+        if (guesses[k].value != "0"sv && guesses[k].value != "0.0"sv) return false;
+    }
+    return true;
+}
+
+}  // namespace
+
+std::size_t append_guess_line(std::string& out, std::span<const GuessedReading> guesses,
+                              std::size_t i) {
+    out += "guess "sv;
+    append_hex4(out, guesses[i].address);
+    // A run of registers whose every reading is 0 (unused ranges devices fill with zeros).
+    std::size_t end = readings_end(guesses, i);
+    std::size_t registers = 1;
+    if (all_zero(guesses, i, end)) {
+        for (std::size_t next = end; next < guesses.size(); ++registers) {
+            const std::size_t next_end = readings_end(guesses, next);
+            if (guesses[next].address != guesses[i].address + registers ||
+                !all_zero(guesses, next, next_end)) {
+                break;
+            }
+            end = next_end;
+            next = next_end;
+        }
+    }
+    if (registers > 1) {
+        out += ".."sv;
+        append_hex4(out, guesses[end - 1].address);
+        out += ": "sv;
+        append_uint(out, registers);
+        out += " registers, all 0"sv;
+        return end;
+    }
+    out += " ("sv;
+    out += guesses[i].raw;  // the first reading is the u16: the word itself
+    out += "):"sv;
+    bool pair_begun = false;
+    for (std::size_t k = i; k < end; ++k) {
+        const GuessedReading& g = guesses[k];
+        if (reading_registers(g.reading) == 2 && !pair_begun) {
+            pair_begun = true;
+            out += " | with "sv;
+            append_hex4(out, static_cast<std::uint16_t>(g.address + 1));
+            out += ':';
+        } else if (k > i) {
+            out += ',';
+        }
+        out += ' ';
+        out += reading_name(g.reading);
+        out += ' ';
+        out += g.value;
+    }
+    return end;
+}
+
 }  // namespace rtuscope

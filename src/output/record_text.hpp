@@ -28,4 +28,11 @@ void append_value(std::string& out, const DecodedValue& value, std::size_t name_
 std::size_t append_unlisted_run(std::string& out, std::span<const DecodedValue> values,
                                 std::size_t i);
 
+// The guessed readings (--guess) from guesses[i] on of one register, and of it with the
+// next one: "guess 0x0002 (0xFF38): u16 65336, i16 -200 | with 0x0003: u32/abcd ...,
+// f32/cdab 15.0". Registers whose every reading is 0, two or more in a row, as one line:
+// "guess 0x0010..0x0013: 4 registers, all 0". Returns the index after what it showed.
+std::size_t append_guess_line(std::string& out, std::span<const GuessedReading> guesses,
+                              std::size_t i);
+
 }  // namespace rtuscope

@@ -173,6 +173,12 @@ class TextSink final : public RecordSink {
             } else {
                 append_packed_values(line, r.values);
             }
+            // A line each, whatever the width: a guess cut short could mislead.
+            for (std::size_t i = 0; i < r.guesses.size();) {
+                line += indent_;
+                i = append_guess_line(line, r.guesses, i);
+                line += '\n';
+            }
         }
         append_comment_lines(line, r.frame.comments);
         out_.record_done();

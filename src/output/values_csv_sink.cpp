@@ -1,7 +1,8 @@
 // One CSV row per register value (--values-csv): the value's own columns first
 // (time,slave,profile,address,name,value,unit,raw), then the record it came from (its
 // number, kind and CRC status, so that a value from a damaged frame is never taken for a
-// good one) and the value's notes.
+// good one) and the value's notes. --guess adds a row per guessed reading, flagged
+// value.guess, its reading ("f32/cdab") in the name column.
 #include <fmt/format.h>
 
 #include "output/block_output.hpp"
@@ -34,22 +35,12 @@ class ValuesCsvSink final : public RecordSink {
                 if (!texts_.empty()) texts_ += "; ";
                 texts_ += note.text;
             }
-            line_.clear();
-            append_seconds(line_, r.frame.start);
-            fmt::format_to(std::back_inserter(line_), ",{},", r.frame.slave());
-            append_csv_field(line_, r.profile->name);
-            fmt::format_to(std::back_inserter(line_), ",0x{:04X},", v.address);
-            for (const std::string* field : {&v.name, &v.value, &v.unit, &v.raw}) {
-                append_csv_field(line_, *field);
-                line_ += ',';
-            }
-            fmt::format_to(std::back_inserter(line_), "{},{},{},", r.number, to_string(r.kind),
-                           to_string(r.frame.crc.status));
-            append_csv_field(line_, ids_);
-            line_ += ',';
-            append_csv_field(line_, texts_);
-            line_ += '\n';
-            write_output(out_, line_);
+            write_row(r, v.address, v.name, v.value, v.unit, v.raw);
+        }
+        for (const GuessedReading& g : r.guesses) {
+            ids_ = note_id::value_guess;
+            texts_ = kGuessNoteText;
+            write_row(r, g.address, reading_name(g.reading), g.value, {}, g.raw);
         }
     }
 
@@ -60,6 +51,27 @@ class ValuesCsvSink final : public RecordSink {
     }
 
   private:
+    void write_row(const Record& r, std::uint16_t address, std::string_view name,
+                   std::string_view value, std::string_view unit, std::string_view raw) {
+        line_.clear();
+        append_seconds(line_, r.frame.start);
+        fmt::format_to(std::back_inserter(line_), ",{},", r.frame.slave());
+        // A guess may be of a slave without a profile.
+        if (r.profile != nullptr) append_csv_field(line_, r.profile->name);
+        fmt::format_to(std::back_inserter(line_), ",0x{:04X},", address);
+        for (const std::string_view field : {name, value, unit, raw}) {
+            append_csv_field(line_, field);
+            line_ += ',';
+        }
+        fmt::format_to(std::back_inserter(line_), "{},{},{},", r.number, to_string(r.kind),
+                       to_string(r.frame.crc.status));
+        append_csv_field(line_, ids_);
+        line_ += ',';
+        append_csv_field(line_, texts_);
+        line_ += '\n';
+        write_output(out_, line_);
+    }
+
     std::FILE* out_;
     std::string line_;
     std::string ids_;    // the value's note ids, space-separated

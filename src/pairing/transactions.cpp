@@ -46,6 +46,7 @@ void Record::clear() {
     decoded.clear();
     profile = nullptr;
     values.clear();
+    guesses.clear();
 }
 
 namespace {

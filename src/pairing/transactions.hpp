@@ -17,6 +17,7 @@
 #include "framing/expectation.hpp"
 #include "framing/frame.hpp"
 #include "framing/functions.hpp"
+#include "profiles/guess.hpp"
 #include "profiles/values.hpp"
 
 namespace rtuscope {
@@ -48,6 +49,7 @@ struct Record {
     DecodedPdu decoded;                 // filled by the decoder stage
     const Profile* profile = nullptr;   // the device's profile, when the bus map has one
     ReusedList<DecodedValue> values;    // its register values in the device's words
+    ReusedList<GuessedReading> guesses;  // --guess: readings of the registers no profile covers
 
     // Empties every field but keeps the buffers: records are reused, one per frame
     // would otherwise cost a dozen allocations.

@@ -20,7 +20,7 @@ if(NOT EXISTS "${MAN_PAGE}")
 endif()
 
 # Commands as argument lists joined with "|"; "rtuscope" is the program itself.
-set(commands "rtuscope" "decode" "stats" "sniff" "demo" "profiles" "profiles|list" "profiles|show"
+set(commands "rtuscope" "decode" "stats" "sniff" "demo" "profiles" "profiles|list" "profiles|show" "profiles|infer"
              "profiles|check")
 set(options "")
 set(checked "")

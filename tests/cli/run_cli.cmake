@@ -1,6 +1,7 @@
 # Runs rtuscope once and checks its exit status and output.
 #   RTUSCOPE   the binary             ARGS        its arguments, joined with |
 #   RC         expected exit status   STDOUT_RE / STDERR_RE   must match (optional)
+#   STDOUT_NOT_RE                     must not match (optional)
 #   COLOUR     YES: stdout has ANSI colour codes, NO: it has none (optional)
 #   PTY        run under `script` so that stdout is a terminal
 #   NO_COLOR   set NO_COLOR in the environment
@@ -27,6 +28,9 @@ if(NOT rc EQUAL RC)
 endif()
 if(DEFINED STDOUT_RE AND NOT out MATCHES "${STDOUT_RE}")
   string(APPEND problems "stdout does not match: ${STDOUT_RE}\n")
+endif()
+if(DEFINED STDOUT_NOT_RE AND out MATCHES "${STDOUT_NOT_RE}")
+  string(APPEND problems "stdout matches what it must not: ${STDOUT_NOT_RE}\n")
 endif()
 string(ASCII 27 esc)
 string(FIND "${out}" "${esc}[" colour_at)
