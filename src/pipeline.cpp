@@ -87,15 +87,18 @@ Status run_pipeline(ChunkSource& source, const PipelineOptions& options, RecordS
     if (options.bus != nullptr) session.devices = options.bus->map_text();
 
     // How the input batches its bytes, learned from its first chunks: said in the header,
-    // and how long a silence must be to prove a frame's end. A file is read ahead that
-    // far; a live input is learned as it comes.
+    // and how long a silence must be to prove a frame's end. A file is read ahead that far
+    // (at most kReadAhead of its time, so that a replay starts at once); what is learned
+    // later, as of a live input, is said at the end.
     const auto stop_requested = [&] { return options.stop != nullptr && options.stop->load(); };
     const bool learns_batching = session.source.timed && !session.source.chunk_time_is_start;
     BatchingLearner learner(session.line.char_time());
     std::deque<Chunk> read_ahead;
     std::optional<Status> read_ahead_end;  // what the source said after the chunks read ahead
-    if (learns_batching && !options.live) {
+    if (learns_batching && !options.live && session.source.format != "live") {
+        constexpr Nanos kReadAhead = 2 * kNanosPerSecond;
         Chunk chunk;
+        Nanos first = kNoTime;
         while (!learner.settled() && !stop_requested()) {
             Result<bool> more = source.next(chunk);
             if (!more.ok() || !*more) {
@@ -104,6 +107,8 @@ Status run_pipeline(ChunkSource& source, const PipelineOptions& options, RecordS
             }
             learner.chunk(chunk);
             read_ahead.push_back(chunk);
+            if (!has_time(first)) first = chunk.time;
+            if (has_time(chunk.time) && has_time(first) && chunk.time - first > kReadAhead) break;
         }
         session.batching = learner.verdict().text();
     }
@@ -133,7 +138,9 @@ Status run_pipeline(ChunkSource& source, const PipelineOptions& options, RecordS
         transactions.push(frame);
     });
 
+    bool learned_already = false;  // the chunk at hand was read ahead, and learned from
     const auto next_chunk = [&](Chunk& chunk) -> Result<bool> {
+        learned_already = !read_ahead.empty();
         if (!read_ahead.empty()) {
             chunk = std::move(read_ahead.front());
             read_ahead.pop_front();
@@ -173,7 +180,7 @@ Status run_pipeline(ChunkSource& source, const PipelineOptions& options, RecordS
             continue;
         }
         line_check.chunk(chunk);
-        if (learns_batching && options.live && !learner.settled()) {
+        if (learns_batching && !learned_already && !learner.settled()) {
             learner.chunk(chunk);
             if (learner.settled()) framer.set_batch_hold(learner.verdict().hold);
         }
@@ -185,8 +192,8 @@ Status run_pipeline(ChunkSource& source, const PipelineOptions& options, RecordS
     framer.finish(stopped);
     transactions.finish(stopped);
     totals.remarks = source.remarks();
-    // Learned too late for the header: a live input's.
-    if (const std::string said = learner.verdict().text(); !said.empty() && session.batching.empty()) {
+    // Learned after the header was printed (a live input's batching).
+    if (const std::string said = learner.verdict().text(); !said.empty() && said != session.batching) {
         totals.remarks.push_back("the input came in " + said);
     }
     for (std::string& remark : line_check.remarks()) totals.remarks.push_back(std::move(remark));

@@ -134,6 +134,24 @@ TEST(BatchingLearner, FewChunksSayNothing) {
     EXPECT_EQ(learner.verdict().kind, Batching::Kind::unknown);
 }
 
+// The header line says how the input batches, when that hides silences.
+TEST(BatchingLearner, IsSaidInTheHeaderOfADecode) {
+    for (const Delivery delivery : {Delivery::per_byte, Delivery::usb_16ms}) {
+        const bench::TrafficInMemory traffic =
+            bench::traffic_in_memory(traffic_options(delivery, 9600, 2'000));
+        auto source = source_from_memory(traffic.capture, "traffic", InputFormat::capture);
+        ASSERT_TRUE(source);
+        test::CollectingSink sink;
+        ASSERT_TRUE(run_pipeline(**source, PipelineOptions{}, sink));
+        EXPECT_EQ(sink.session.batching,
+                  delivery == Delivery::per_byte
+                      ? ""
+                      : "chunks every 16 ms: silences under 16 ms cannot be seen")
+            << to_string(delivery);
+        EXPECT_EQ(sink.records.front().number, 1U);
+    }
+}
+
 struct Case {
     Delivery delivery;
     std::uint32_t baud;
@@ -218,18 +236,6 @@ TEST_P(DamagedFrames, AreOneRecordEachAtTheirTrueBoundaries) {
                                                : found->second->frame.cls == RecordClass::frame);
         if (right) continue;
         ++missed;
-        if (missed <= 10 && std::getenv("RTUSCOPE_DEBUG") != nullptr) {
-            auto it = record_at.upper_bound(first);
-            for (int k = 0; k < 3 && it != record_at.begin(); ++k) --it;
-            for (int k = 0; k < 5 && it != record_at.end(); ++k, ++it) {
-                const Record& r = *it->second;
-                misses += fmt::format("\n      @{} #{} {} {} gap={} [{:02X}] {}", it->first, r.number,
-                                      static_cast<int>(r.frame.cls), static_cast<int>(r.kind),
-                                      r.frame.silence_before, fmt::join(r.frame.bytes, " "),
-                                      r.notes.size() ? r.notes.begin()->text : "");
-            }
-            misses += fmt::format("\n      sent at {}", first);
-        }
         if (missed <= 10) {
             misses += fmt::format("\n  {}{:02X}: {}", s.damaged ? "damaged " : "",
                                   fmt::join(s.bytes, " "),

@@ -24,6 +24,9 @@
 namespace rtuscope {
 namespace {
 
+// The stray bytes an RS-485 driver may leave around a frame as it switches.
+constexpr std::size_t kMaxJunk = 2;
+
 // A gap before the first byte of the input or of a new channel: always a boundary.
 constexpr Nanos kBoundary = std::numeric_limits<Nanos>::max();
 
@@ -687,11 +690,14 @@ void Framer::classify_unframed(std::size_t from, std::size_t to) {
             continue;
         }
         std::size_t end = gap_after(start, to);
-        // A frame whose CRC fails may begin after a few stray bytes (a driver's junk byte):
-        // one that ends just where the next frame or a proven silence begins, before the
-        // next proven silence.
-        const std::size_t search_end = std::min(to, start + kMaxAdu);
-        for (std::size_t at = start + 1; at + kMinAdu <= search_end; ++at) {
+        // A frame whose CRC fails may begin after a few stray bytes: one that ends just
+        // where the next frame or a proven silence begins. With exact timing the stray
+        // bytes are a junk byte or two; batched, whatever came before the next proven
+        // silence.
+        const std::size_t search_end = options_.batch_hold == 0
+                                           ? std::min(end, start + 1 + kMaxJunk)
+                                           : std::min(to, start + kMaxAdu);
+        for (std::size_t at = start + 1; at < search_end; ++at) {
             if (proven_gap_before(at)) break;
             if (damaged_frame_length(at, to, true, reading) != 0) {
                 end = std::min(end, at);
@@ -761,17 +767,19 @@ std::size_t Framer::damaged_frame_length(std::size_t start, std::size_t to, bool
     const auto head = std::span(bytes_).subspan(start, std::min(avail, kMaxAdu));
     const FrameLengths lengths = options_.rules->frame_lengths(head);
     const bool answer_first = expects_answer_at(start, head);
-    // A request whose quantity the function does not allow, or an answer to a read that
-    // nobody asked for or that holds no data, is unlikely.
+    // Only a function whose length the table gives (noise often holds another). Of its
+    // readings, the likelier: a request with a quantity the function allows, an answer
+    // with data in it that the master awaits (by its function: the slave's address may be
+    // the byte that took the hit).
     const FunctionSpec& spec = options_.rules->function(head[0], head[1]);
+    if (spec.request_length.kind == LengthRule::Kind::search) return 0;
     const bool reads = spec.access == DataAccess::read && spec.max_quantity != 0;
     const unsigned quantity = head.size() < 6 ? 0U : (unsigned{head[4]} << 8U) | head[5];
-    const bool request_plausible = spec.max_quantity == 0 || head.size() < 6 ||
-                                   (quantity >= 1 && quantity <= spec.max_quantity);
+    const bool request_likely = spec.max_quantity == 0 || head.size() < 6 ||
+                                (quantity >= 1 && quantity <= spec.max_quantity);
     const AwaitedAnswer* awaited =
         options_.expectation != nullptr ? options_.expectation->awaited(byte_end(start)) : nullptr;
-    // The slave's address may be the byte that took the hit: the function is enough.
-    const bool response_plausible =
+    const bool response_likely =
         (head[1] & 0x80U) != 0 || !reads ||
         (head[2] != 0 && awaited != nullptr && awaited->function == head[1]);
     std::size_t chosen = 0;
@@ -788,12 +796,16 @@ std::size_t Framer::damaged_frame_length(std::size_t start, std::size_t to, bool
             proven = proven_gap_before(gap);
         }
         if (proven) continue;
+        // With exact timing, bytes are cut at their silences, and the length decides only
+        // where a junk byte or two follow it before the next one (a driver's, switching
+        // off): noise between true silences stays noise.
+        if (options_.batch_hold == 0 && gap_after(end - 1, to) - end > kMaxJunk) continue;
         // Where both readings fit, the one that ends where the next frame or a proven
         // silence begins.
         const bool at_boundary = end == to || proven_gap_before(end);
         if (at_boundary_only && !at_boundary) continue;
-        const bool plausible = role == Role::response ? response_plausible : request_plausible;
-        const int rank = (at_boundary ? 2 : 0) + (plausible ? 1 : 0);
+        const bool likely = role == Role::response ? response_likely : request_likely;
+        const int rank = (at_boundary ? 2 : 0) + (likely ? 1 : 0);
         if (rank > chosen_rank) {
             chosen = length.bytes;
             chosen_rank = rank;
