@@ -105,7 +105,7 @@ TEST(BatchingLearner, FindsAUartFifo) {
     const Nanos char_time = LineSettings{.baud = 9600}.char_time();
     EXPECT_EQ(b.hold, 4 * char_time + char_time / 2);
     EXPECT_EQ(b.text(),
-              "chunks of 14 bytes, the rest after a pause (a UART FIFO): silences under 4.69 ms "
+              "chunks of 14 bytes, the rest after a pause (a UART FIFO): silences under 5 ms "
               "cannot be seen");
 }
 

@@ -17,8 +17,11 @@ constexpr Nanos kLongestInterval = kNanosPerSecond;
 // Fewer chunks say nothing about how the input batches.
 constexpr std::size_t kFewestChunks = 16;
 
-double in_ms(Nanos t) {
-    return static_cast<double>(t) / 1e6;
+// Milliseconds as an adapter's settings give them: whole above 2 ms (a chunk after a
+// latency timer's run comes a little later than the timer, when the next byte ends).
+std::string ms_text(Nanos t) {
+    const double ms = static_cast<double>(t) / 1e6;
+    return ms >= 2.0 ? fmt::format("{:.0f}", ms) : fmt::format("{:.2g}", ms);
 }
 
 }  // namespace
@@ -29,13 +32,13 @@ std::string Batching::text() const {
         case Kind::per_byte:
             return {};
         case Kind::timer:
-            return fmt::format("chunks every {:.3g} ms: silences under {:.3g} ms cannot be seen",
-                               in_ms(period), in_ms(hold));
+            return fmt::format("chunks every {} ms: silences under {} ms cannot be seen",
+                               ms_text(period), ms_text(hold));
         case Kind::fifo:
             return fmt::format(
-                "chunks of {} bytes, the rest after a pause (a UART FIFO): silences under "
-                "{:.3g} ms cannot be seen",
-                fifo_trigger, in_ms(hold));
+                "chunks of {} bytes, the rest after a pause (a UART FIFO): silences under {} ms "
+                "cannot be seen",
+                fifo_trigger, ms_text(hold));
     }
     return {};
 }
