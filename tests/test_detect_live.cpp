@@ -78,7 +78,8 @@ void expect_detected(sim::VirtualBus& bus, const LineSettings& truth, std::size_
         if (r.kind == Kind::noise || r.number == 1 || r.notes.has(note_id::cut_by_stop)) continue;
         EXPECT_EQ(r.frame.crc.status, CrcStatus::ok)
             << "at " << name(result->chosen) << ": record " << r.number << " of " << records.size()
-            << ", " << to_string(r.kind) << ", " << r.frame.bytes.size() << " bytes";
+            << ", " << to_string(r.kind) << ", " << r.frame.bytes.size() << " bytes: "
+            << fmt::format("{:02X}", fmt::join(r.frame.bytes, " "));
         if (r.frame.crc.status == CrcStatus::ok) ++good;
     }
     EXPECT_GE(good, frames) << "at " << name(result->chosen) << ": " << records.size() << " records\n" << report;

@@ -678,10 +678,13 @@ Reading Framer::reading_by_shape(std::span<const std::uint8_t> frame, Nanos at,
 
 void Framer::classify_unframed(std::size_t from, std::size_t to) {
     const bool timed = has_time(byte_end(from));
+    // The bytes a stop cut off end nowhere a frame does: no length is taken from them.
+    const bool cut_at_stop = stopped_ && to == bytes_.size();
     std::size_t start = from;
     while (start < to) {
         Reading reading = Reading::unknown;
-        if (const std::size_t n = damaged_frame_length(start, to, false, reading); n != 0) {
+        if (const std::size_t n = cut_at_stop ? 0 : damaged_frame_length(start, to, false, reading);
+            n != 0) {
             const auto frame = std::span(bytes_).subspan(start, n);
             emit(start, n, RecordClass::invalid, reading,
                  gap_before(start + n) ? Delimiter::gap : Delimiter::length_crc,
@@ -697,7 +700,7 @@ void Framer::classify_unframed(std::size_t from, std::size_t to) {
         const std::size_t search_end = options_.batch_hold == 0
                                            ? std::min(end, start + 1 + kMaxJunk)
                                            : std::min(to, start + kMaxAdu);
-        for (std::size_t at = start + 1; at < search_end; ++at) {
+        for (std::size_t at = start + 1; at < search_end && !cut_at_stop; ++at) {
             if (proven_gap_before(at)) break;
             if (damaged_frame_length(at, to, true, reading) != 0) {
                 end = std::min(end, at);
@@ -721,7 +724,9 @@ void Framer::classify_unframed(std::size_t from, std::size_t to) {
                 start = end;
                 continue;
             }
-            if (shape != Reading::unknown) {
+            // What a stop cut off may fit a shorter frame's shape by chance (the first 5
+            // bytes of a read, `01 03 00 03 00`, as an answer with no data): it is cut.
+            if (shape != Reading::unknown && !(stopped_ && end == bytes_.size())) {
                 emit(start, n, RecordClass::invalid, shape,
                      bounded_by_gaps ? Delimiter::gap : Delimiter::length_crc, crc);
                 start = end;
