@@ -680,10 +680,11 @@ void Framer::classify_unframed(std::size_t from, std::size_t to) {
     const bool timed = has_time(byte_end(from));
     // The bytes a stop cut off end nowhere a frame does: no length is taken from them.
     const bool cut_at_stop = stopped_ && to == bytes_.size();
+    const bool lengths_apply = seen_valid_frame_ && !cut_at_stop;
     std::size_t start = from;
     while (start < to) {
         Reading reading = Reading::unknown;
-        if (const std::size_t n = cut_at_stop ? 0 : damaged_frame_length(start, to, false, reading);
+        if (const std::size_t n = lengths_apply ? damaged_frame_length(start, to, false, reading) : 0;
             n != 0) {
             const auto frame = std::span(bytes_).subspan(start, n);
             emit(start, n, RecordClass::invalid, reading,
@@ -700,7 +701,7 @@ void Framer::classify_unframed(std::size_t from, std::size_t to) {
         const std::size_t search_end = options_.batch_hold == 0
                                            ? std::min(end, start + 1 + kMaxJunk)
                                            : std::min(to, start + kMaxAdu);
-        for (std::size_t at = start + 1; at < search_end && !cut_at_stop; ++at) {
+        for (std::size_t at = start + 1; at < search_end && lengths_apply; ++at) {
             if (proven_gap_before(at)) break;
             if (damaged_frame_length(at, to, true, reading) != 0) {
                 end = std::min(end, at);
@@ -1004,6 +1005,7 @@ void Framer::emit(std::size_t at, std::size_t length, RecordClass cls, Reading r
     if (!time_jumps_.empty()) add_time_jump_notes(frame, at, length);
     pos_ = at + length;
     scan_hint_ = 0;
+    if (cls == RecordClass::frame) seen_valid_frame_ = true;
     emit_(frame);
 }
 

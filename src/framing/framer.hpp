@@ -231,6 +231,9 @@ class Framer {
     Nanos last_end_ = kNoTime;                    // the last byte's end, as placed
     Nanos last_stamp_ = kNoTime;                  // the last chunk's time, as the input stamped it
     bool seen_bytes_ = false;
+    // A valid frame has been found: bytes before the first may be the tail of a frame the
+    // input began in the middle of (a port opened mid-frame), so no length is taken there.
+    bool seen_valid_frame_ = false;
     bool stopped_ = false;  // finish(true): the bytes at the end were cut by the stop
     // While a packet the capture cut is decided: how many of its bytes it did not keep.
     std::uint32_t not_captured_ = 0;
