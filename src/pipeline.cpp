@@ -107,8 +107,12 @@ Status run_pipeline(ChunkSource& source, const PipelineOptions& options, RecordS
             }
             learner.chunk(chunk);
             read_ahead.push_back(chunk);
+            // Times out of range stop the run below; they must not overflow this first.
+            if (!has_time(chunk.time) || chunk.time > kMaxTime || chunk.time < -kMaxTime) {
+                continue;
+            }
             if (!has_time(first)) first = chunk.time;
-            if (has_time(chunk.time) && has_time(first) && chunk.time - first > kReadAhead) break;
+            if (chunk.time - first > kReadAhead) break;
         }
         session.batching = learner.verdict().text();
     }
