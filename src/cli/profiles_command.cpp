@@ -14,18 +14,6 @@
 namespace rtuscope::cli {
 namespace {
 
-const char* access_text(Access access) {
-    switch (access) {
-        case Access::read:
-            return "R";
-        case Access::write:
-            return "W";
-        case Access::read_write:
-            return "RW";
-    }
-    return "";
-}
-
 std::string number_text(double value) {
     return fmt::format("{}", value);
 }

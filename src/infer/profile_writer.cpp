@@ -7,18 +7,6 @@
 namespace rtuscope::infer {
 namespace {
 
-const char* access_text(Access access) {
-    switch (access) {
-        case Access::read:
-            return "R";
-        case Access::write:
-            return "W";
-        case Access::read_write:
-            return "RW";
-    }
-    return "R";
-}
-
 // reg_0x4082 for a holding or input register, unless both tables have that address (then
 // holding_0x4082 and input_0x4082: names are unique in a profile); coil_ and discrete_
 // for bits.

@@ -10,6 +10,18 @@
 
 namespace rtuscope {
 
+const char* access_text(Access access) {
+    switch (access) {
+        case Access::read:
+            return "R";
+        case Access::write:
+            return "W";
+        case Access::read_write:
+            return "RW";
+    }
+    return "";
+}
+
 double scale_for_decimals(int decimals) {
     // Decoding compares a register's scale with this for every value it prints.
     static const std::array<double, 10> kScales = [] {

@@ -66,6 +66,8 @@ bool reverses_registers(WordOrder order);
 bool swaps_bytes(WordOrder order);
 
 enum class Access : std::uint8_t { read, write, read_write };
+// As a profile file writes it: "R", "W", "RW".
+const char* access_text(Access access);
 
 // Where in the file a definition stands, for messages (1-based; 0 = unknown).
 struct SourcePos {
