@@ -156,6 +156,19 @@ Status check_recording_options(const LiveArgs& args) {
     return ok_status();
 }
 
+Status check_replay_options(const LiveArgs& args) {
+    if (Status s = check_recording_options(args); !s) return s;
+    const char* option = !args.write_file.empty() ? "-w"
+                         : args.seconds > 0       ? "--seconds"
+                         : args.syslog            ? "--syslog"
+                         : args.reopen            ? "--reopen"
+                                                  : nullptr;
+    if (option == nullptr) return ok_status();
+    return Error{fmt::format("{} is for a live port (sniff, watch PORT); a file is a recording "
+                             "already: rtuscope decode FILE --from T --to T cuts it",
+                             option)};
+}
+
 void take_baud_auto(LiveArgs& args) {
     if (args.output.baud != "auto") return;
     args.output.baud.clear();

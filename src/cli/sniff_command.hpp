@@ -49,6 +49,9 @@ void take_baud_auto(LiveArgs& args);
 void add_recording_options(CLI::App& cmd, LiveArgs& args);
 // An Error for recording options that do not go together (the run exits 2).
 Status check_recording_options(const LiveArgs& args);
+// As check_recording_options, and an Error for any option that only a live port
+// serves (-w, --seconds, --syslog, --reopen): `watch FILE` replays what is recorded.
+Status check_replay_options(const LiveArgs& args);
 
 // With detect_line (--baud auto), finds the line's settings by listening (the rate only
 // when --format gives the format) and puts them in `decoding`, saying why on stderr;

@@ -67,6 +67,7 @@ void add_watch_sink(Decoding& decoding, const Telemetry& telemetry, Display& dis
 
 // A capture, dump, log or pcap replayed at its own pace (or at once with --speed max).
 int watch_file(const WatchArgs& args, double speed) {
+    if (Status s = check_replay_options(args.live); !s) return print_error(s.error()), 2;
     auto opened = open_source(args.inputs.front(), InputFormat::automatic, PcapOptions{args.rtu_ports});
     if (!opened) return print_error(opened.error()), 1;
     int exit_code = 0;
