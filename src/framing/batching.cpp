@@ -110,14 +110,20 @@ Batching BatchingLearner::verdict() const {
     }
 
     // A UART FIFO: chunks of its trigger level whose bytes came back to back, handed over
-    // as the last one came.
+    // as the last one came; all of one size (a timer's full chunks differ by a byte as
+    // its period falls between characters).
     std::map<std::size_t, std::size_t> full;
+    std::size_t back_to_back = 0;
     for (const Sample& s : samples_) {
-        if (s.bytes >= 4 && std::abs(s.interval - bytes_time(s)) <= ct / 2) ++full[s.bytes];
+        if (s.bytes >= 4 && std::abs(s.interval - bytes_time(s)) <= ct / 2) {
+            ++full[s.bytes];
+            ++back_to_back;
+        }
     }
     const auto trigger = std::ranges::max_element(
         full, [](const auto& a, const auto& b) { return a.second < b.second; });
-    if (trigger != full.end() && trigger->second * 100 >= samples_.size() * 15) {
+    if (trigger != full.end() && trigger->second >= kFewestChunks &&
+        trigger->second * 100 >= samples_.size() * 5 && trigger->second * 10 >= back_to_back * 9) {
         batching.kind = Batching::Kind::fifo;
         batching.fifo_trigger = trigger->first;
         batching.hold = kFifoTimeoutChars * ct + ct / 2;
