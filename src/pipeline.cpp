@@ -88,15 +88,14 @@ Status run_pipeline(ChunkSource& source, const PipelineOptions& options, RecordS
 
     // How the input batches its bytes, learned from its first chunks: said in the header,
     // and how long a silence must be to prove a frame's end. A file is read ahead that far
-    // (at most kReadAhead of its time, so that a replay starts at once); what is learned
-    // later, as of a live input, is said at the end.
+    // (a paced replay at most options.read_ahead_time of it); what is learned later, as of
+    // a live input, is said at the end.
     const auto stop_requested = [&] { return options.stop != nullptr && options.stop->load(); };
     const bool learns_batching = session.source.timed && !session.source.chunk_time_is_start;
     BatchingLearner learner(session.line.char_time());
     std::deque<Chunk> read_ahead;
     std::optional<Status> read_ahead_end;  // what the source said after the chunks read ahead
     if (learns_batching && !options.live && session.source.format != "live") {
-        constexpr Nanos kReadAhead = 2 * kNanosPerSecond;
         Chunk chunk;
         Nanos first = kNoTime;
         while (!learner.settled() && !stop_requested()) {
@@ -112,7 +111,7 @@ Status run_pipeline(ChunkSource& source, const PipelineOptions& options, RecordS
                 continue;
             }
             if (!has_time(first)) first = chunk.time;
-            if (chunk.time - first > kReadAhead) break;
+            if (options.read_ahead_time && chunk.time - first > *options.read_ahead_time) break;
         }
         session.batching = learner.verdict().text();
     }
@@ -135,6 +134,7 @@ Status run_pipeline(ChunkSource& source, const PipelineOptions& options, RecordS
     framer_options.rules = rules;
     framer_options.expectation = &transactions;
     framer_options.batch_hold = learner.verdict().hold;
+    framer_options.exact_timing = learner.verdict().kind == Batching::Kind::per_byte;
     // Whether the input looks like RTU at these settings: said at the end, nothing dropped.
     LineCheck line_check(session.line);
     Framer framer(framer_options, [&](Frame& frame) {
@@ -186,7 +186,7 @@ Status run_pipeline(ChunkSource& source, const PipelineOptions& options, RecordS
         line_check.chunk(chunk);
         if (learns_batching && !learned_already && !learner.settled()) {
             learner.chunk(chunk);
-            if (learner.settled()) framer.set_batch_hold(learner.verdict().hold);
+            if (learner.settled()) framer.set_batching(learner.verdict());
         }
         framer.push(chunk);
     }

@@ -32,6 +32,10 @@ struct PipelineOptions {
     // Set (by a signal handler) to stop the run at the next record boundary, as if the
     // input ended there; read errors after it (an interrupted read) are the stop, too.
     const std::atomic<bool>* stop = nullptr;
+    // A file is read ahead until its batching is learned (256 chunks) before its first
+    // frame is decided; a replay paced to its own clock reads ahead at most this much of
+    // its time, so that it starts at once.
+    std::optional<Nanos> read_ahead_time;
 };
 
 // What a sink is told before the first record.

@@ -246,10 +246,12 @@ TEST_P(DamagedFrames, AreOneRecordEachAtTheirTrueBoundaries) {
         }
     }
     EXPECT_GE(damaged, 1'000U) << "the traffic has too few damaged frames to tell";
-    // A few in a thousand damaged frames still come out cut elsewhere: a bit error that
-    // leaves a request's quantity out of range next to an answer nobody awaited reads the
-    // other way, and a driver's junk byte before a damaged frame hides where it begins.
-    EXPECT_LE(missed, 10U) << missed << " frames not found as sent:" << misses;
+    // With every byte timed, each frame is found. Batched, a few in two thousand damaged
+    // frames still come out cut elsewhere: where two or three damaged frames (or junk and
+    // a damaged frame) touch with no silence to show between them, one whose function
+    // code took the hit among them, the readings that fit can end in more than one place.
+    const std::size_t allowed = c.delivery == Delivery::per_byte ? 0 : 8;
+    EXPECT_LE(missed, allowed) << missed << " frames not found as sent:" << misses;
     EXPECT_LE(by_chance.size(), 3U) << "valid frames not sent, over sent ones";
 }
 

@@ -75,6 +75,9 @@ int watch_file(const WatchArgs& args, double speed) {
     if (!decoding) return exit_code;
     std::unique_ptr<ChunkSource> source = std::move(*opened);
     if (speed > 0) source = pace_source(std::move(source), speed);
+    // Learning the batching reads ahead: at most 2 s of the file's time, so that the
+    // replay's first screen comes soon.
+    if (speed > 0) decoding->options.read_ahead_time = 2 * kNanosPerSecond;
     install_stop_handlers();
     decoding->options.stop = &g_stop;
     auto telemetry = watch_telemetry(args, args.inputs.front(), *decoding, exit_code);

@@ -16,6 +16,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <array>
 #include <functional>
 #include <limits>
 #include <span>
@@ -401,10 +402,20 @@ Framer::Attempt Framer::attempt_at(std::size_t at, bool at_end) const {
     };
     bool searched = false;
     Attempt best;
+    // A frame and the 00 after it check as a frame one byte longer (the CRC of a frame
+    // and its CRC's low byte is 00 and its high byte). Where the 00 starts the next frame,
+    // the shorter reading is the frame.
+    auto null_tail = [&](const Attempt& longer, const Attempt& shorter) {
+        return longer.length == shorter.length + 1 && bytes_[at + shorter.length] == 0 &&
+               what_follows(at + shorter.length, at_end) == Follows::boundary &&
+               what_follows(at + longer.length, at_end) != Follows::boundary;
+    };
     auto better = [&](const Attempt& a, const Attempt& b) {
         if (crc_rank(a.crc.status) != crc_rank(b.crc.status)) {
             return crc_rank(a.crc.status) > crc_rank(b.crc.status);
         }
+        if (null_tail(b, a)) return true;
+        if (null_tail(a, b)) return false;
         const bool a_answer = a.reading != Reading::request;
         if (a_answer != (b.reading != Reading::request)) return a_answer == prefers_response();
         const bool a_gap = followed_by_gap(at + a.length, at_end);
@@ -603,9 +614,17 @@ void Framer::decide(bool at_end) {
         std::size_t resync = std::max(scan_hint_, pos_ + 1);
         bool waiting = false;
         for (; resync < bytes_.size(); ++resync) {
-            const Outcome outcome = attempt_at(resync, at_end).outcome;
-            if (outcome == Outcome::frame) break;
-            if (outcome == Outcome::need_more) {
+            const Attempt there = attempt_at(resync, at_end);
+            if (there.outcome == Outcome::frame) {
+                const std::optional<bool> chance = found_by_chance(there, resync, at_end);
+                if (!chance) {
+                    waiting = true;
+                    break;
+                }
+                if (*chance) continue;
+                break;
+            }
+            if (there.outcome == Outcome::need_more) {
                 waiting = true;
                 break;
             }
@@ -683,14 +702,31 @@ void Framer::classify_unframed(std::size_t from, std::size_t to) {
     const bool lengths_apply = seen_valid_frame_ && !cut_at_stop;
     std::size_t start = from;
     while (start < to) {
-        Reading reading = Reading::unknown;
-        if (const std::size_t n = lengths_apply ? damaged_frame_length(start, to, false, reading) : 0;
-            n != 0) {
-            const auto frame = std::span(bytes_).subspan(start, n);
-            emit(start, n, RecordClass::invalid, reading,
-                 gap_before(start + n) ? Delimiter::gap : Delimiter::length_crc,
-                 check_crc(frame));
-            start += n;
+        const DamagedFit fit = lengths_apply ? damaged_frame(start, to, false, true) : DamagedFit{};
+        // A junk byte or two before a damaged frame can read as a frame of its own: the
+        // frame after them wins when it ends where the next frame or a proven silence
+        // begins and its reading is much the likelier.
+        auto after_junk = [&](std::size_t junk) {
+            const DamagedFit there = damaged_frame(start + junk, to, true, false);
+            return there.where == 3 && there.rank >= fit.rank + 2;
+        };
+        std::size_t junk = 1;
+        while (fit.length != 0 && junk <= kMaxJunk && start + junk < to && !after_junk(junk)) {
+            ++junk;
+        }
+        if (fit.length != 0 && junk <= kMaxJunk && start + junk < to) {
+            emit(start, junk, RecordClass::noise, Reading::unknown, Delimiter::gap, {});
+            start += junk;
+            continue;
+        }
+        if (fit.length != 0) {
+            // Its CRC may check after all: a frame that a longer reading's chance CRC hid.
+            const CrcCheck crc = check_crc(std::span(bytes_).subspan(start, fit.length));
+            emit(start, fit.length,
+                 crc.status == CrcStatus::bad ? RecordClass::invalid : RecordClass::frame,
+                 fit.reading,
+                 gap_before(start + fit.length) ? Delimiter::gap : Delimiter::length_crc, crc);
+            start += fit.length;
             continue;
         }
         std::size_t end = gap_after(start, to);
@@ -703,7 +739,7 @@ void Framer::classify_unframed(std::size_t from, std::size_t to) {
                                            : std::min(to, start + kMaxAdu);
         for (std::size_t at = start + 1; at < search_end && lengths_apply; ++at) {
             if (proven_gap_before(at)) break;
-            if (damaged_frame_length(at, to, true, reading) != 0) {
+            if (damaged_frame(at, to, true, true).length != 0) {
                 end = std::min(end, at);
                 break;
             }
@@ -766,33 +802,78 @@ bool Framer::proven_gap_before(std::size_t at) const {
     return is_measured(piece.gap) && piece.gap >= t35_ + options_.batch_hold;
 }
 
-std::size_t Framer::damaged_frame_length(std::size_t start, std::size_t to, bool at_boundary_only,
-                                         Reading& reading) const {
+Framer::DamagedFit Framer::damaged_frame(std::size_t start, std::size_t to,
+                                         bool at_boundary_only, bool chain) const {
+    DamagedFit chosen;
     const std::size_t avail = to - start;
-    if (avail < kMinAdu) return 0;
+    if (avail < kMinAdu) return chosen;
     const auto head = std::span(bytes_).subspan(start, std::min(avail, kMaxAdu));
     const FrameLengths lengths = options_.rules->frame_lengths(head);
     const bool answer_first = expects_answer_at(start, head);
     // Only a function whose length the table gives (noise often holds another). Of its
-    // readings, the likelier: a request with a quantity the function allows, an answer
-    // with data in it that the master awaits (by its function: the slave's address may be
-    // the byte that took the hit).
+    // readings, the likelier (2: by evidence that chance rarely gives, 1: by what the
+    // reading allows): a request with a quantity the function allows (2), or with none to
+    // check (1), but no read sent to everyone; an answer the master awaits from this
+    // slave (2), with data in it from another (1: the slave's address may be the byte that
+    // took the hit), an exception or the answer to a write (1).
     const FunctionSpec& spec = options_.rules->function(head[0], head[1]);
-    if (spec.request_length.kind == LengthRule::Kind::search) return 0;
+    if (spec.request_length.kind == LengthRule::Kind::search) return chosen;
     const bool reads = spec.access == DataAccess::read && spec.max_quantity != 0;
     const unsigned quantity = head.size() < 6 ? 0U : (unsigned{head[4]} << 8U) | head[5];
-    const bool request_likely = spec.max_quantity == 0 || head.size() < 6 ||
-                                (quantity >= 1 && quantity <= spec.max_quantity);
+    const int request_likely = head[0] == 0 && reads                            ? 0
+                               : spec.max_quantity == 0 || head.size() < 6      ? 1
+                               : quantity >= 1 && quantity <= spec.max_quantity ? 2
+                                                                                : 0;
     const AwaitedAnswer* awaited =
         options_.expectation != nullptr ? options_.expectation->awaited(byte_end(start)) : nullptr;
-    const bool response_likely =
-        (head[1] & 0x80U) != 0 || !reads ||
-        (head[2] != 0 && awaited != nullptr && awaited->function == head[1]);
-    std::size_t chosen = 0;
-    int chosen_rank = -1;
+    const bool awaited_function =
+        head[2] != 0 && awaited != nullptr && awaited->function == head[1];
+    const auto bytes_for = [&](unsigned items) {
+        const bool bits = spec.table == DataTable::coils || spec.table == DataTable::discrete_inputs;
+        return bits ? (items + 7) / 8 : 2 * items;
+    };
+    // The quantity the awaited request asked for, which gives its answer's byte count.
+    unsigned asked = 0;
+    if (reads && awaited_function && spec.response_length.kind == LengthRule::Kind::counted &&
+        awaited->request.size() >= 6) {
+        asked = (unsigned{awaited->request[4]} << 8U) | awaited->request[5];
+        if (asked > spec.max_quantity) asked = 0;
+    }
+    const bool counted_as_asked = asked != 0 && head[2] == bytes_for(asked);
+    const int response_likely =
+        awaited_function && (awaited->slave == head[0] || counted_as_asked) ? 2
+        : (head[1] & 0x80U) != 0 || !reads || awaited_function              ? 1
+                                                                            : 0;
+    // A byte count and a quantity that disagree: one of them took the hit. Both lengths
+    // are readings, and where they end decides (a write's own quantity, a read answer's
+    // request's).
+    struct Candidate {
+        Role role;
+        FrameLength length;
+        int likely;
+    };
+    std::array<Candidate, 4> candidates{};
+    std::size_t count = 0;
     for (const Role role : {answer_first ? Role::response : Role::request,
                             answer_first ? Role::request : Role::response}) {
-        const FrameLength& length = lengths.of(role);
+        int likely = role == Role::response ? response_likely : request_likely;
+        std::optional<std::size_t> from_quantity;
+        if (role == Role::request && spec.request_length.kind == LengthRule::Kind::counted &&
+            spec.request_length.n == 6 && request_likely == 2 && head.size() > 6 &&
+            head[6] != bytes_for(quantity)) {
+            from_quantity = 9 + bytes_for(quantity);
+        }
+        if (role == Role::response && asked != 0 && !counted_as_asked) {
+            from_quantity = 5 + bytes_for(asked);
+        }
+        if (from_quantity) likely = 1;
+        candidates[count++] = {role, lengths.of(role), likely};
+        // The quantity's length only where it ends at a boundary and nothing likelier does.
+        if (from_quantity) candidates[count++] = {role, FrameLength::fixed_at(*from_quantity), 0};
+    }
+    for (const Candidate& candidate : std::span(candidates).first(count)) {
+        const Role role = candidate.role;
+        const FrameLength& length = candidate.length;
         if (!length.fixed_within(head.size()) || length.bytes < kMinAdu) continue;
         const std::size_t end = start + length.bytes;
         // Only a silence the batching cannot have made cuts it shorter.
@@ -806,19 +887,109 @@ std::size_t Framer::damaged_frame_length(std::size_t start, std::size_t to, bool
         // where a junk byte or two follow it before the next one (a driver's, switching
         // off): noise between true silences stays noise.
         if (options_.batch_hold == 0 && gap_after(end - 1, to) - end > kMaxJunk) continue;
-        // Where both readings fit, the one that ends where the next frame or a proven
-        // silence begins.
+        // Where it ends: where the next frame or a proven silence begins (3); where
+        // another damaged frame that ends so begins, or a junk byte or two before such a
+        // place (2); elsewhere (0).
         const bool at_boundary = end == to || proven_gap_before(end);
-        if (at_boundary_only && !at_boundary) continue;
-        const bool likely = role == Role::response ? response_likely : request_likely;
-        const int rank = (at_boundary ? 2 : 0) + (likely ? 1 : 0);
-        if (rank > chosen_rank) {
-            chosen = length.bytes;
-            chosen_rank = rank;
-            reading = reading_for(role, head[1]);
+        const bool chained = !at_boundary && chain && damaged_frame(end, to, true, false).length != 0;
+        if (at_boundary_only && !at_boundary && !chained) continue;
+        bool near_boundary = false;
+        for (std::size_t junk = 1; junk <= kMaxJunk && !at_boundary && end + junk <= to; ++junk) {
+            near_boundary = near_boundary || end + junk == to || proven_gap_before(end + junk);
         }
+        const int where = at_boundary ? 3 : chained || near_boundary ? 2 : 0;
+        const int rank = where + candidate.likely;
+        if (rank > chosen.rank) chosen = {length.bytes, reading_for(role, head[1]), rank, where};
     }
     return chosen;
+}
+
+std::optional<bool> Framer::found_by_chance(const Attempt& there, std::size_t at,
+                                            bool at_end) const {
+    // A CRC matches one candidate in 65,536, and through bytes that start no frame every
+    // byte tries some: a frame found there must also sit where a frame can. Where the
+    // input's batching is known, one that reaches over a proven silence without starting
+    // at one is a chance match (a frame the line paused in starts after a silence).
+    // Batching not understood can show a silence a few bytes from where it was.
+    const bool silences_placed = options_.exact_timing || options_.batch_hold > 0;
+    const std::size_t end = at + there.length;
+    if (silences_placed && !proven_gap_before(at)) {
+        for (std::size_t gap = gap_after(at, end); gap < end; gap = gap_after(gap, end)) {
+            if (proven_gap_before(gap)) return true;
+        }
+    }
+    bool pending = false;  // bytes still to come decide
+    // So is one that neither the next frame nor a silence follows, but another frame
+    // starts inside it that they follow: the true frame, whose first bytes the chance
+    // match took.
+    const Follows after = what_follows(end, at_end);
+    if (after == Follows::unknown_yet) pending = true;
+    for (std::size_t inner = at + 1; inner < end && after != Follows::boundary; ++inner) {
+        const auto head = std::span(bytes_).subspan(inner, std::min(bytes_.size() - inner, kMaxAdu));
+        const FrameLengths lengths = options_.rules->frame_lengths(head);
+        for (const Role role : {Role::request, Role::response}) {
+            const FrameLength& inside = lengths.of(role);
+            if (inside.kind != FrameLength::Kind::fixed || inside.bytes < kMinAdu) continue;
+            if (inside.bytes > head.size()) {
+                pending = pending || (!at_end && inside.bytes <= kMaxAdu);
+                continue;
+            }
+            if (check_crc(head.first(inside.bytes)).status != CrcStatus::ok) continue;
+            const Follows follows = what_follows(inner + inside.bytes, at_end);
+            if (follows == Follows::boundary) return true;
+            pending = pending || follows == Follows::unknown_yet;
+        }
+    }
+    // And one found by its CRC alone (a function without a known length, or the CRC's
+    // bytes swapped) inside the reading of a damaged frame from pos_ that ends where the
+    // next frame or a silence begins.
+    const bool weak = there.delimiter == Delimiter::crc_search || there.crc.status == CrcStatus::swapped;
+    if (weak && seen_valid_frame_ && !(stopped_ && at_end)) {
+        const std::size_t damaged = damaged_frame(pos_, bytes_.size(), false, false).length;
+        const std::size_t damaged_end = pos_ + damaged;
+        if (damaged != 0 && damaged_end >= end) {
+            if (damaged_end == bytes_.size()) {
+                if (at_end) return true;
+                pending = true;
+            } else if (proven_gap_before(damaged_end)) {
+                return true;
+            } else {
+                const Attempt next = attempt_at(damaged_end, at_end);
+                if (next.outcome == Outcome::frame && next.crc.status == CrcStatus::ok) return true;
+                pending = pending || next.outcome == Outcome::need_more;
+            }
+        }
+    }
+    if (pending) return std::nullopt;
+    // Where the bytes from pos_ are a frame whose CRC fails between two proven silences,
+    // a frame inside it is a chance match too, but for one that a junk byte or two
+    // before and after are all that is left of that reading.
+    if (!silences_placed || !seen_valid_frame_ || !proven_gap_before(pos_) ||
+        (stopped_ && at_end)) {
+        return false;
+    }
+    if (!at_end) {
+        const auto head = std::span(bytes_).subspan(pos_, std::min(bytes_.size() - pos_, kMaxAdu));
+        const FrameLengths lengths = options_.rules->frame_lengths(head);
+        for (const Role role : {Role::request, Role::response}) {
+            const FrameLength& reach = lengths.of(role);
+            if (reach.kind == FrameLength::Kind::fixed && pos_ + reach.bytes >= bytes_.size() &&
+                pos_ + reach.bytes > at && reach.bytes <= kMaxAdu) {
+                return std::nullopt;
+            }
+        }
+    }
+    // Only a reading that chance rarely gives: the next frame's start is not known yet.
+    const DamagedFit fit = damaged_frame(pos_, bytes_.size(), false, true);
+    const std::size_t damaged = fit.rank - fit.where == 2 ? fit.length : 0;
+    if (damaged == 0 || pos_ + damaged <= at) return false;
+    const std::size_t damaged_end = pos_ + damaged;
+    if (damaged_end == bytes_.size()) {
+        if (!at_end) return std::nullopt;
+    } else if (!proven_gap_before(damaged_end)) {
+        return false;
+    }
+    return at - pos_ > kMaxJunk || end + kMaxJunk < damaged_end;
 }
 
 std::size_t Framer::end_of_unframed_lines(std::size_t start, std::size_t end) const {

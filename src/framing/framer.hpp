@@ -10,10 +10,12 @@
 
 #include <cstdint>
 #include <functional>
+#include <optional>
 #include <string>
 #include <unordered_map>
 #include <vector>
 
+#include "framing/batching.hpp"
 #include "framing/crc_end_index.hpp"
 #include "framing/expectation.hpp"
 #include "framing/frame.hpp"
@@ -40,6 +42,9 @@ struct FramerOptions {
     // a silence measured between chunks proves a frame's end only when it exceeds t3.5 by
     // this much.
     Nanos batch_hold = 0;
+    // Each byte is handed over alone (Batching::Kind::per_byte): every silence is
+    // measured where it was on the line.
+    bool exact_timing = false;
 };
 
 class Framer {
@@ -68,7 +73,10 @@ class Framer {
     // whole frame were cut by the stop, not broken on the line, and are noted so.
     void finish(bool stopped = false);
     // What was learned of the input's batching since (live input: after the first chunks).
-    void set_batch_hold(Nanos hold) { options_.batch_hold = hold; }
+    void set_batching(const Batching& batching) {
+        options_.batch_hold = batching.hold;
+        options_.exact_timing = batching.kind == Batching::Kind::per_byte;
+    }
 
   private:
     enum class Outcome : std::uint8_t { frame, no_frame, need_more };
@@ -111,12 +119,24 @@ class Framer {
     void classify_unframed(std::size_t from, std::size_t to);
     // A silence at `at` that batching cannot have made up (FramerOptions::batch_hold).
     [[nodiscard]] bool proven_gap_before(std::size_t at) const;
-    // The length of a frame whose CRC fails at `start`, before `to` (where the next frame
-    // starts): the length its function code (and byte count) gives, with no proven silence
-    // inside; with `at_boundary_only`, only one that ends at `to` or a proven silence.
-    // 0 when none fits. Its reading is set in `reading`.
-    [[nodiscard]] std::size_t damaged_frame_length(std::size_t start, std::size_t to,
-                                                   bool at_boundary_only, Reading& reading) const;
+    // A frame whose CRC fails at `start`, before `to` (where the next frame starts): the
+    // length its function code (and byte count) gives, with no proven silence inside, and
+    // of its readings the likelier; with `at_boundary_only`, only one that ends at `to`, a
+    // proven silence or (with `chain`) where another such frame starts.
+    struct DamagedFit {
+        std::size_t length = 0;  // 0: no reading fits
+        Reading reading = Reading::unknown;
+        int rank = -1;  // how likely the reading is, against others (framer.cpp)
+        // Where it ends: 3 at `to` or a proven silence, 2 where another damaged frame
+        // that ends so starts or a junk byte or two before such a place, 0 elsewhere.
+        int where = 0;
+    };
+    [[nodiscard]] DamagedFit damaged_frame(std::size_t start, std::size_t to,
+                                           bool at_boundary_only, bool chain) const;
+    // Whether the frame `there` at `at`, found while looking past bytes from pos_ that
+    // start none, is one by chance; std::nullopt when bytes still to come decide.
+    [[nodiscard]] std::optional<bool> found_by_chance(const Attempt& there, std::size_t at,
+                                                      bool at_end) const;
     // Hex logs: where bytes from `start` that form no frame end, at most at `end`: after
     // the fewest whole lines that have a frame's shape or a right CRC (a frame with a
     // wrong CRC over several lines), else at the end of the line `start` is in.
