@@ -158,6 +158,25 @@ TEST(ScoreSetting, ARightSettingFramesPairsAndFitsItsTiming) {
     EXPECT_LT(longer.score, 40.0);
 }
 
+TEST(ScoreSetting, PiecesOfFramesAtTheEdgesOfALoadedReadAreNotJudged) {
+    // A reader woken late on a loaded machine stamps the rest of a frame as if after a
+    // silence: the bursts left out at the start and end of listening then end and begin
+    // inside frames, and a piece of one is left at each edge.
+    const LineSettings line = setting(9600, "8N2");
+    auto chunks = polled_line(line, 6);
+    const auto woken_late = [&](std::size_t from) {
+        for (std::size_t i = from; i < chunks.size(); ++i) chunks[i].time += 10 * test::kMs;
+    };
+    woken_late(3);                  // the first request's last 5 bytes
+    woken_late(chunks.size() - 3);  // the last answer's first 6 bytes stay before it
+    const SettingScore s = score_setting(line, chunks, kNanosPerSecond);
+    EXPECT_EQ(s.edge_bytes, 5U + 6U);
+    EXPECT_DOUBLE_EQ(s.coverage(), 1.0);
+    EXPECT_DOUBLE_EQ(s.score, 100.0);
+    // Read whole, a recording's edges are judged as they are.
+    EXPECT_EQ(score_setting(line, chunks, kNanosPerSecond, true).edge_bytes, 0U);
+}
+
 TEST(ScoreSetting, ErrorsThePortReportsAndGarbageScoreLow) {
     const LineSettings line = setting(9600, "8N1");
     auto chunks = polled_line(line, 6);

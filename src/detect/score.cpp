@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "detect/detect.hpp"
+#include "framing/functions.hpp"
 #include "pipeline.hpp"
 
 namespace rtuscope {
@@ -35,9 +36,18 @@ class Counting final : public RecordSink {
     explicit Counting(SettingScore& score) : score_(score) {}
     void begin(const SessionInfo& /*session*/) override {}
     void record(const Record& r) override {
-        if (r.kind == Kind::noise) return;
         const CrcStatus crc = r.frame.crc.status;
-        if (r.kind == Kind::invalid || crc == CrcStatus::bad || crc == CrcStatus::none) {
+        const bool valid = r.kind != Kind::noise && r.kind != Kind::invalid &&
+                           crc != CrcStatus::bad && crc != CrcStatus::none;
+        Edge& edge = score_.frames == 0 ? leading_ : trailing_;
+        if (!valid) {
+            ++edge.records;
+            edge.bytes += r.frame.bytes.size();
+        } else {
+            trailing_ = {};
+        }
+        if (r.kind == Kind::noise) return;
+        if (!valid) {
             ++score_.bad_frames;
             return;
         }
@@ -49,8 +59,25 @@ class Counting final : public RecordSink {
     }
     void end(const Totals& /*totals*/, const std::vector<std::string>& /*remarks*/) override {}
 
+    // Bytes of the first and last records that are pieces of frames: one record each
+    // before the first and after the last valid frame, no longer than a frame, among
+    // enough valid frames that chance did not make them.
+    [[nodiscard]] std::uint64_t edge_bytes() const {
+        if (score_.frames < 3) return 0;
+        const auto piece = [](const Edge& e) {
+            return e.records == 1 && e.bytes <= kMaxAdu ? e.bytes : std::uint64_t{0};
+        };
+        return piece(leading_) + piece(trailing_);
+    }
+
   private:
+    struct Edge {
+        std::uint64_t records = 0;
+        std::uint64_t bytes = 0;
+    };
     SettingScore& score_;
+    Edge leading_;
+    Edge trailing_;
 };
 
 TimingFit timing_fit(const LineSettings& line, const std::optional<CharTimeEstimate>& timing) {
@@ -69,7 +96,8 @@ TimingFit timing_fit(const LineSettings& line, const std::optional<CharTimeEstim
 }  // namespace
 
 double SettingScore::coverage() const {
-    return bytes == 0 ? 0.0 : static_cast<double>(frame_bytes) / static_cast<double>(bytes);
+    const std::uint64_t judged = bytes - edge_bytes;
+    return judged == 0 ? 0.0 : static_cast<double>(frame_bytes) / static_cast<double>(judged);
 }
 
 // Listening starts and stops at moments that have nothing to do with the line: the first
@@ -110,6 +138,9 @@ SettingScore score_setting(const LineSettings& line, std::span<const Chunk> hear
     Counting counting(s);
     // Heard bytes always make records: a source in memory has no read error to give.
     (void)run_pipeline(source, options, counting);
+    // Where a loaded machine reads a port late, a frame's bytes seem to part at a silence
+    // and the bursts left out above may not be whole frames.
+    if (!whole) s.edge_bytes = counting.edge_bytes();
 
     // A right setting puts the bytes in frames with a valid CRC, without errors, at the
     // spacing of its characters; a wrong one gives noise and errors. A few frames, or
