@@ -12,6 +12,9 @@ install(FILES ${PROJECT_SOURCE_DIR}/contrib/rtuscope-record@.service
         DESTINATION ${CMAKE_INSTALL_DOCDIR}/contrib)
 install(FILES ${PROJECT_SOURCE_DIR}/profiles/README.md ${RTUSCOPE_BUNDLED_PROFILES}
         DESTINATION ${CMAKE_INSTALL_DOCDIR}/profiles)
+# uPlot's MIT licence: the binary carries uPlot, inlined into every report page.
+install(FILES ${PROJECT_SOURCE_DIR}/third_party/uplot/LICENSE
+        DESTINATION ${CMAKE_INSTALL_DOCDIR}/third_party/uplot)
 
 set(CPACK_GENERATOR DEB)
 set(CPACK_PACKAGE_NAME rtuscope)

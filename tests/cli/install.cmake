@@ -6,7 +6,8 @@ set(files bin/rtuscope share/man/man1/rtuscope.1 share/doc/rtuscope/README.md
           share/doc/rtuscope/formats.md share/doc/rtuscope/profiles.md
           share/doc/rtuscope/profiles/README.md share/doc/rtuscope/profiles/pdu485.toml
           share/doc/rtuscope/profiles/sensor-analyser.toml
-          share/doc/rtuscope/profiles/zb-uvi485.toml share/doc/rtuscope/profiles/zyi-relay.toml)
+          share/doc/rtuscope/profiles/zb-uvi485.toml share/doc/rtuscope/profiles/zyi-relay.toml
+          share/doc/rtuscope/third_party/uplot/LICENSE)
 file(REMOVE_RECURSE ${WORK_DIR})
 
 if(NOT DEB)
