@@ -133,8 +133,7 @@ Status run_pipeline(ChunkSource& source, const PipelineOptions& options, RecordS
     framer_options.chunk_is_line = session.source.chunk_is_line;
     framer_options.rules = rules;
     framer_options.expectation = &transactions;
-    framer_options.batch_hold = learner.verdict().hold;
-    framer_options.exact_timing = learner.verdict().kind == Batching::Kind::per_byte;
+    framer_options.batching = learner.verdict();
     // Whether the input looks like RTU at these settings: said at the end, nothing dropped.
     LineCheck line_check(session.line);
     Framer framer(framer_options, [&](Frame& frame) {

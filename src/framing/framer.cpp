@@ -706,15 +706,13 @@ void Framer::classify_unframed(std::size_t from, std::size_t to) {
         // A junk byte or two before a damaged frame can read as a frame of its own: the
         // frame after them wins when it ends where the next frame or a proven silence
         // begins and its reading is much the likelier.
-        auto after_junk = [&](std::size_t junk) {
-            const DamagedFit there = damaged_frame(start + junk, to, true, false);
-            return there.where == 3 && there.rank >= fit.rank + 2;
-        };
-        std::size_t junk = 1;
-        while (fit.length != 0 && junk <= kMaxJunk && start + junk < to && !after_junk(junk)) {
-            ++junk;
+        std::size_t junk = 0;
+        for (std::size_t n = 1; fit.length != 0 && junk == 0 && n <= kMaxJunk && start + n < to;
+             ++n) {
+            const DamagedFit there = damaged_frame(start + n, to, true, false);
+            if (there.where == 3 && there.rank >= fit.rank + 2) junk = n;
         }
-        if (fit.length != 0 && junk <= kMaxJunk && start + junk < to) {
+        if (junk != 0) {
             emit(start, junk, RecordClass::noise, Reading::unknown, Delimiter::gap, {});
             start += junk;
             continue;
@@ -734,7 +732,7 @@ void Framer::classify_unframed(std::size_t from, std::size_t to) {
         // where the next frame or a proven silence begins. With exact timing the stray
         // bytes are a junk byte or two; batched, whatever came before the next proven
         // silence.
-        const std::size_t search_end = options_.batch_hold == 0
+        const std::size_t search_end = options_.batching.hold == 0
                                            ? std::min(end, start + 1 + kMaxJunk)
                                            : std::min(to, start + kMaxAdu);
         for (std::size_t at = start + 1; at < search_end && lengths_apply; ++at) {
@@ -799,7 +797,7 @@ bool Framer::proven_gap_before(std::size_t at) const {
     const Piece& piece = piece_of(at);
     if (piece.first != base_ + at) return false;
     if (piece.starts_frame || piece.gap == kBoundary) return true;
-    return is_measured(piece.gap) && piece.gap >= t35_ + options_.batch_hold;
+    return is_measured(piece.gap) && piece.gap >= t35_ + options_.batching.hold;
 }
 
 Framer::DamagedFit Framer::damaged_frame(std::size_t start, std::size_t to,
@@ -886,7 +884,7 @@ Framer::DamagedFit Framer::damaged_frame(std::size_t start, std::size_t to,
         // With exact timing, bytes are cut at their silences, and the length decides only
         // where a junk byte or two follow it before the next one (a driver's, switching
         // off): noise between true silences stays noise.
-        if (options_.batch_hold == 0 && gap_after(end - 1, to) - end > kMaxJunk) continue;
+        if (options_.batching.hold == 0 && gap_after(end - 1, to) - end > kMaxJunk) continue;
         // Where it ends: where the next frame or a proven silence begins (3); where
         // another damaged frame that ends so begins, or a junk byte or two before such a
         // place (2); elsewhere (0).
@@ -911,7 +909,7 @@ std::optional<bool> Framer::found_by_chance(const Attempt& there, std::size_t at
     // input's batching is known, one that reaches over a proven silence without starting
     // at one is a chance match (a frame the line paused in starts after a silence).
     // Batching not understood can show a silence a few bytes from where it was.
-    const bool silences_placed = options_.exact_timing || options_.batch_hold > 0;
+    const bool silences_placed = options_.batching.kind != Batching::Kind::unknown;
     const std::size_t end = at + there.length;
     if (silences_placed && !proven_gap_before(at)) {
         for (std::size_t gap = gap_after(at, end); gap < end; gap = gap_after(gap, end)) {

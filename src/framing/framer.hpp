@@ -38,13 +38,10 @@ struct FramerOptions {
     // master's requests, chunks of any other channel the slaves' answers. Chunks without
     // a channel are told apart by shape and order as usual.
     std::string request_channel = "master";
-    // How much later than it ended the input may hand a byte over (framing/batching.hpp):
-    // a silence measured between chunks proves a frame's end only when it exceeds t3.5 by
-    // this much.
-    Nanos batch_hold = 0;
-    // Each byte is handed over alone (Batching::Kind::per_byte): every silence is
-    // measured where it was on the line.
-    bool exact_timing = false;
+    // How the input hands its bytes over (framing/batching.hpp): a silence measured
+    // between chunks proves a frame's end only when it exceeds t3.5 by `batching.hold`;
+    // while the kind is unknown, silences may show a few bytes from where they were.
+    Batching batching;
 };
 
 class Framer {
@@ -73,10 +70,7 @@ class Framer {
     // whole frame were cut by the stop, not broken on the line, and are noted so.
     void finish(bool stopped = false);
     // What was learned of the input's batching since (live input: after the first chunks).
-    void set_batching(const Batching& batching) {
-        options_.batch_hold = batching.hold;
-        options_.exact_timing = batching.kind == Batching::Kind::per_byte;
-    }
+    void set_batching(const Batching& batching) { options_.batching = batching; }
 
   private:
     enum class Outcome : std::uint8_t { frame, no_frame, need_more };
@@ -117,7 +111,7 @@ class Framer {
     // A silence (or the start of the input or of a channel) of at least t3.5.
     [[nodiscard]] bool ends_frame(Nanos gap) const { return gap != kNoTime && gap >= t35_; }
     void classify_unframed(std::size_t from, std::size_t to);
-    // A silence at `at` that batching cannot have made up (FramerOptions::batch_hold).
+    // A silence at `at` that batching cannot have made up (FramerOptions::batching).
     [[nodiscard]] bool proven_gap_before(std::size_t at) const;
     // A frame whose CRC fails at `start`, before `to` (where the next frame starts): the
     // length its function code (and byte count) gives, with no proven silence inside, and
