@@ -174,6 +174,110 @@ bool length_survived(const SentFrame& s) {
     return length.kind == FrameLength::Kind::fixed && length.bytes == s.bytes.size();
 }
 
+// Where no silence shows between them, the bytes of a damaged frame and its neighbours are
+// read by what their fields make likely. A framer behind a 16 ms latency timer, whose
+// chunks hold several frames each.
+struct Batched {
+    Batched() : h([] {
+        FramerOptions o;
+        o.batching = {.kind = Batching::Kind::timer, .period = 16'000'000, .hold = 16'000'000};
+        return o;
+    }()) {}
+    // The frames of `frames` handed over in one chunk, 16 ms after the last.
+    Batched& chunk(std::initializer_list<test::Bytes> frames) {
+        line.deliver_at(at += 16'000'000, test::concat(frames));
+        return *this;
+    }
+    std::vector<Record>& run() { return h.run(line.chunks()); }
+
+    test::Line line;
+    Nanos at = 0;
+    test::Harness h;
+};
+
+// The frame with its CRC's last byte hit.
+test::Bytes damaged(test::Bytes frame) {
+    frame.back() ^= 0x10;
+    return frame;
+}
+
+void expect_damaged(const Record& r, const test::Bytes& bytes) {
+    EXPECT_EQ(r.frame.bytes, bytes) << "record " << r.number;
+    EXPECT_EQ(r.frame.crc.status, CrcStatus::bad) << "record " << r.number;
+    EXPECT_TRUE(r.notes.has(note_id::crc_mismatch)) << "record " << r.number;
+}
+
+const test::Bytes kRead6 = test::with_crc({0x06, 0x03, 0x00, 0x10, 0x00, 0x01});
+const test::Bytes kAnswer6 = test::with_crc({0x06, 0x03, 0x02, 0x12, 0x34});
+const test::Bytes kRead1 = test::with_crc({0x01, 0x03, 0x00, 0x00, 0x00, 0x02});
+const test::Bytes kAnswer1 = test::with_crc({0x01, 0x03, 0x04, 0x00, 0x01, 0x00, 0x02});
+
+TEST(DamagedFrameReadings, AnAddressSeenOnTheBusIsLikelierThanAJunkByte) {
+    // FF 06 06 00 10 12 34 xx also reads as a write to slave 255; slave 6 has answered.
+    const test::Bytes write = damaged(test::with_crc({0x06, 0x06, 0x00, 0x10, 0x12, 0x34}));
+    Batched bus;
+    bus.chunk({kRead6, kAnswer6}).chunk({kRead1, kAnswer1}).chunk({{0xFF}, write, kRead1});
+    const auto& r = bus.run();
+    ASSERT_EQ(r.size(), 7U);
+    EXPECT_EQ(r[4].kind, Kind::noise);
+    EXPECT_EQ(r[4].frame.bytes, test::Bytes{0xFF});
+    expect_damaged(r[5], write);
+    EXPECT_EQ(r[6].frame.bytes, kRead1);
+}
+
+TEST(DamagedFrameReadings, AQuantityTwoBitErrorsFromAnyAllowedIsUnlikely) {
+    // 05 03 02 6C 85 54 E7 5B also reads as a read of 0x8554 registers, ending where the
+    // next frame begins; the answer, with a junk byte after it, is the likelier.
+    const test::Bytes read5 = test::with_crc({0x05, 0x03, 0x00, 0x01, 0x00, 0x01});
+    const test::Bytes answer5 = test::with_crc({0x05, 0x03, 0x02, 0x00, 0x00});
+    const test::Bytes answer = damaged(test::with_crc({0x05, 0x03, 0x02, 0x6C, 0x85}));
+    Batched bus;
+    bus.chunk({read5, answer5}).chunk({kRead1}).chunk({answer, {0x5B}, kRead6});
+    const auto& r = bus.run();
+    ASSERT_EQ(r.size(), 6U);
+    expect_damaged(r[3], answer);
+    EXPECT_EQ(r[4].kind, Kind::noise);
+    EXPECT_EQ(r[5].frame.bytes, kRead6);
+}
+
+TEST(DamagedFrameReadings, TheAnswerToAWriteOfSeveralRepeatsItsQuantity) {
+    // Slave 5's answer, its address hit (05 -> 01), then a read whose CRC took a hit: the
+    // 16 bytes also read as a write of 50 coils whose byte count (44) took it.
+    const test::Bytes write = test::with_crc(
+        {0x05, 0x0F, 0x02, 0x2D, 0x00, 0x32, 0x07, 0x01, 0x02, 0x03, 0x04, 0x05, 0x06, 0x01});
+    test::Bytes answer = test::with_crc({0x05, 0x0F, 0x02, 0x2D, 0x00, 0x32});
+    answer[0] = 0x01;
+    const test::Bytes read = damaged(test::with_crc({0x02, 0x03, 0x00, 0x64, 0x00, 0x01}));
+    const test::Bytes read_answer = test::with_crc({0x02, 0x03, 0x02, 0x00, 0x07});
+    Batched bus;
+    bus.chunk({kRead1, kAnswer1}).chunk({write}).chunk({answer, read, read_answer});
+    const auto& r = bus.run();
+    ASSERT_EQ(r.size(), 6U);
+    expect_damaged(r[3], answer);
+    EXPECT_EQ(r[3].frame.reading, Reading::response);
+    expect_damaged(r[4], read);
+    EXPECT_EQ(r[5].frame.bytes, read_answer);
+}
+
+TEST(DamagedFrameReadings, AnExceptionOfAnUnknownFunctionInsideADamagedAnswerIsByChance) {
+    // Slave 6's answer of 5 registers, its last data byte hit, holds 11 C1 02 and their
+    // CRC: an exception answer to function 41, which no table knows.
+    const test::Bytes exception = test::with_crc({0x11, 0xC1, 0x02});
+    test::Bytes data = {0x06, 0x03, 0x0A, 0x00, 0x00};
+    data.insert(data.end(), exception.begin(), exception.end());
+    data.insert(data.end(), {0x00, 0x00, 0x00});
+    test::Bytes answer = test::with_crc(data);
+    answer[answer.size() - 3] ^= 0x04;
+    const test::Bytes read = test::with_crc({0x06, 0x03, 0x00, 0x10, 0x00, 0x05});
+    Batched bus;
+    bus.chunk({kRead6, kAnswer6}).chunk({read, answer, kRead1});
+    const auto& r = bus.run();
+    ASSERT_EQ(r.size(), 5U);
+    EXPECT_EQ(r[2].frame.bytes, read);
+    expect_damaged(r[3], answer);
+    EXPECT_EQ(r[4].frame.bytes, kRead1);
+}
+
 class DamagedFrames : public ::testing::TestWithParam<Case> {};
 
 TEST_P(DamagedFrames, AreOneRecordEachAtTheirTrueBoundaries) {
@@ -250,7 +354,7 @@ TEST_P(DamagedFrames, AreOneRecordEachAtTheirTrueBoundaries) {
     // frames still come out cut elsewhere: where two or three damaged frames (or junk and
     // a damaged frame) touch with no silence to show between them, one whose function
     // code took the hit among them, the readings that fit can end in more than one place.
-    const std::size_t allowed = c.delivery == Delivery::per_byte ? 0 : 8;
+    const std::size_t allowed = c.delivery == Delivery::per_byte ? 0 : 4;
     EXPECT_LE(missed, allowed) << missed << " frames not found as sent:" << misses;
     EXPECT_LE(by_chance.size(), 3U) << "valid frames not sent, over sent ones";
 }

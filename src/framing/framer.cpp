@@ -809,30 +809,48 @@ Framer::DamagedFit Framer::damaged_frame(std::size_t start, std::size_t to,
     const FrameLengths lengths = options_.rules->frame_lengths(head);
     const bool answer_first = expects_answer_at(start, head);
     // Only a function whose length the table gives (noise often holds another). Of its
-    // readings, the likelier (2: by evidence that chance rarely gives, 1: by what the
-    // reading allows): a request with a quantity the function allows (2), or with none to
-    // check (1), but no read sent to everyone; an answer the master awaits from this
-    // slave (2), with data in it from another (1: the slave's address may be the byte that
-    // took the hit), an exception or the answer to a write (1).
+    // readings, the likelier, by how its fields bear it out (2: by evidence that chance
+    // rarely gives; 1: by what the reading allows; 0: against it, by one bit error; -1: by
+    // more than one):
+    //   a request: its word (a quantity, a coil's FF00 or 0000) as allowed 2, one bit
+    //     from it 0, further -1, none to check 1; a read sent to everyone 0;
+    //   an answer: awaited from this slave, or with the byte count asked, 2; an echo or
+    //     the answer to a write of several, as its word; of the function awaited from
+    //     another slave 1 (the address may be the byte that took the hit); awaited by
+    //     none 0.
     const FunctionSpec& spec = options_.rules->function(head[0], head[1]);
     if (spec.request_length.kind == LengthRule::Kind::search) return chosen;
     const bool reads = spec.access == DataAccess::read && spec.max_quantity != 0;
-    const unsigned quantity = head.size() < 6 ? 0U : (unsigned{head[4]} << 8U) | head[5];
-    const int request_likely = head[0] == 0 && reads                            ? 0
-                               : spec.max_quantity == 0 || head.size() < 6      ? 1
-                               : quantity >= 1 && quantity <= spec.max_quantity ? 2
-                                                                                : 0;
+    const unsigned word = head.size() < 6 ? 0U : (unsigned{head[4]} << 8U) | head[5];
+    const auto allowed = [&](unsigned w) {
+        return spec.request_word == RequestWord::on_off ? w == 0xFF00 || w == 0
+                                                        : w >= 1 && w <= spec.max_quantity;
+    };
+    const auto one_bit_from_allowed = [&](unsigned w) {
+        for (unsigned bit = 0; bit < 16; ++bit) {
+            if (allowed(w ^ (1U << bit))) return true;
+        }
+        return false;
+    };
+    const int word_likely = head.size() < 6 || spec.request_word == RequestWord::none ? 1
+                            : allowed(word)                                          ? 2
+                            : one_bit_from_allowed(word)                             ? 0
+                                                                                     : -1;
+    const int request_likely = head[0] == 0 && reads ? 0 : word_likely;
     const AwaitedAnswer* awaited =
         options_.expectation != nullptr ? options_.expectation->awaited(byte_end(start)) : nullptr;
-    const bool awaited_function =
-        head[2] != 0 && awaited != nullptr && awaited->function == head[1];
+    const bool exception = (head[1] & 0x80U) != 0;
+    // (A read's answer without data is none.)
+    const bool counted = spec.response_length.kind == LengthRule::Kind::counted;
+    const bool awaited_function = awaited != nullptr && awaited->function == (head[1] & 0x7FU) &&
+                                  (exception || head[2] != 0 || !counted);
     const auto bytes_for = [&](unsigned items) {
         const bool bits = spec.table == DataTable::coils || spec.table == DataTable::discrete_inputs;
         return bits ? (items + 7) / 8 : 2 * items;
     };
     // The quantity the awaited request asked for, which gives its answer's byte count.
     unsigned asked = 0;
-    if (reads && awaited_function && spec.response_length.kind == LengthRule::Kind::counted &&
+    if (reads && !exception && awaited_function && counted &&
         awaited->request.size() >= 6) {
         asked = (unsigned{awaited->request[4]} << 8U) | awaited->request[5];
         if (asked > spec.max_quantity) asked = 0;
@@ -840,8 +858,12 @@ Framer::DamagedFit Framer::damaged_frame(std::size_t start, std::size_t to,
     const bool counted_as_asked = asked != 0 && head[2] == bytes_for(asked);
     const int response_likely =
         awaited_function && (awaited->slave == head[0] || counted_as_asked) ? 2
-        : (head[1] & 0x80U) != 0 || !reads || awaited_function              ? 1
+        : !exception && spec.answer_repeats_word                            ? word_likely
+        : awaited_function                                                  ? 1
                                                                             : 0;
+    // An address that valid frames have shown on this bus is likelier than one they have
+    // not (a junk byte read as an address).
+    const int known_slave = slaves_seen_.test(head[0]) ? 1 : 0;
     // A byte count and a quantity that disagree: one of them took the hit. Both lengths
     // are readings, and where they end decides (a write's own quantity, a read answer's
     // request's).
@@ -858,8 +880,8 @@ Framer::DamagedFit Framer::damaged_frame(std::size_t start, std::size_t to,
         std::optional<std::size_t> from_quantity;
         if (role == Role::request && spec.request_length.kind == LengthRule::Kind::counted &&
             spec.request_length.n == 6 && request_likely == 2 && head.size() > 6 &&
-            head[6] != bytes_for(quantity)) {
-            from_quantity = 9 + bytes_for(quantity);
+            head[6] != bytes_for(word)) {
+            from_quantity = 9 + bytes_for(word);
         }
         if (role == Role::response && asked != 0 && !counted_as_asked) {
             from_quantity = 5 + bytes_for(asked);
@@ -896,8 +918,12 @@ Framer::DamagedFit Framer::damaged_frame(std::size_t start, std::size_t to,
             near_boundary = near_boundary || end + junk == to || proven_gap_before(end + junk);
         }
         const int where = at_boundary ? 3 : chained || near_boundary ? 2 : 0;
-        const int rank = where + candidate.likely;
-        if (rank > chosen.rank) chosen = {length.bytes, reading_for(role, head[1]), rank, where};
+        const int rank = where + candidate.likely + known_slave;
+        // One that ends nowhere in particular and that its own fields argue against is none.
+        if (rank < 0) continue;
+        if (rank > chosen.rank) {
+            chosen = {length.bytes, reading_for(role, head[1]), rank, where, candidate.likely};
+        }
     }
     return chosen;
 }
@@ -941,7 +967,12 @@ std::optional<bool> Framer::found_by_chance(const Attempt& there, std::size_t at
     // And one found by its CRC alone (a function without a known length, or the CRC's
     // bytes swapped) inside the reading of a damaged frame from pos_ that ends where the
     // next frame or a silence begins.
-    const bool weak = there.delimiter == Delimiter::crc_search || there.crc.status == CrcStatus::swapped;
+    const std::uint8_t function = bytes_[at + 1];
+    const bool unknown_exception =
+        (function & 0x80U) != 0 &&
+        options_.rules->function(bytes_[at], function).request_length.kind == LengthRule::Kind::search;
+    const bool weak = there.delimiter == Delimiter::crc_search ||
+                      there.crc.status == CrcStatus::swapped || unknown_exception;
     if (weak && seen_valid_frame_ && !(stopped_ && at_end)) {
         const std::size_t damaged = damaged_frame(pos_, bytes_.size(), false, false).length;
         const std::size_t damaged_end = pos_ + damaged;
@@ -979,7 +1010,7 @@ std::optional<bool> Framer::found_by_chance(const Attempt& there, std::size_t at
     }
     // Only a reading that chance rarely gives: the next frame's start is not known yet.
     const DamagedFit fit = damaged_frame(pos_, bytes_.size(), false, true);
-    const std::size_t damaged = fit.rank - fit.where == 2 ? fit.length : 0;
+    const std::size_t damaged = fit.likely == 2 ? fit.length : 0;
     if (damaged == 0 || pos_ + damaged <= at) return false;
     const std::size_t damaged_end = pos_ + damaged;
     if (damaged_end == bytes_.size()) {
@@ -1175,6 +1206,7 @@ void Framer::emit(std::size_t at, std::size_t length, RecordClass cls, Reading r
     pos_ = at + length;
     scan_hint_ = 0;
     if (cls == RecordClass::frame) seen_valid_frame_ = true;
+    if (crc.status == CrcStatus::ok) slaves_seen_.set(frame.bytes[0]);
     emit_(frame);
 }
 

@@ -8,6 +8,7 @@
 // in exactly one Frame record.
 #pragma once
 
+#include <bitset>
 #include <cstdint>
 #include <functional>
 #include <optional>
@@ -120,10 +121,13 @@ class Framer {
     struct DamagedFit {
         std::size_t length = 0;  // 0: no reading fits
         Reading reading = Reading::unknown;
-        int rank = -1;  // how likely the reading is, against others (framer.cpp)
+        int rank = -1;  // where + likely, + 1 for an address seen on this bus
         // Where it ends: 3 at `to` or a proven silence, 2 where another damaged frame
         // that ends so starts or a junk byte or two before such a place, 0 elsewhere.
         int where = 0;
+        // How its own fields bear it out, from 2 (evidence chance rarely gives) to -1
+        // (against it by more than one bit error): framer.cpp.
+        int likely = 0;
     };
     [[nodiscard]] DamagedFit damaged_frame(std::size_t start, std::size_t to,
                                            bool at_boundary_only, bool chain) const;
@@ -248,6 +252,7 @@ class Framer {
     // A valid frame has been found: bytes before the first may be the tail of a frame the
     // input began in the middle of (a port opened mid-frame), so no length is taken there.
     bool seen_valid_frame_ = false;
+    std::bitset<256> slaves_seen_;  // the addresses of frames whose CRC checks
     bool stopped_ = false;  // finish(true): the bytes at the end were cut by the stop
     // While a packet the capture cut is decided: how many of its bytes it did not keep.
     std::uint32_t not_captured_ = 0;

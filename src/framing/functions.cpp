@@ -64,9 +64,12 @@ constexpr auto kCounted2 = L::counted(2);  // addr fc count data
 // The section 6 entries, in code order. Quantity limits from the request descriptions.
 FunctionSpec entry(std::uint8_t code, const char* name, LengthRule request, LengthRule response,
                    Answer answer, DataTable table, DataAccess access, std::uint16_t max_quantity,
-                   PduDecoder decode_request, PduDecoder decode_response) {
-    return {code,   name,         request,        response,        answer, table,
-            access, max_quantity, decode_request, decode_response, {}};
+                   PduDecoder decode_request, PduDecoder decode_response,
+                   RequestWord request_word = RequestWord::none, bool answer_repeats_word = false) {
+    return {code,         name,         request,
+            response,     answer,       table,
+            access,       max_quantity, request_word,
+            answer_repeats_word, decode_request, decode_response, {}};
 }
 
 std::array<FunctionSpec, 128> make_table() {
@@ -76,22 +79,25 @@ std::array<FunctionSpec, 128> make_table() {
     constexpr DataAccess read_write = DataAccess::read_write;
     constexpr Answer echo = Answer::echo;
     constexpr Answer reply = Answer::reply;
+    constexpr RequestWord quantity = RequestWord::quantity;
+    constexpr RequestWord on_off = RequestWord::on_off;
     // clang-format off
     const FunctionSpec standard_entries[] = {
         // code, name, request length, answer length, answer, data, access, max quantity,
-        // request decoder, answer decoder
+        // request decoder, answer decoder, the request's word, whether the answer repeats it
         entry(0x01, "Read Coils", kFixed8, kCounted2, reply, coils, read, 2000,  // 6.1
-              decode_read_request, decode_read_bits_response),
+              decode_read_request, decode_read_bits_response, quantity),
         entry(0x02, "Read Discrete Inputs", kFixed8, kCounted2, reply, discrete_inputs, read,
-              2000, decode_read_request, decode_read_bits_response),  // 6.2
+              2000, decode_read_request, decode_read_bits_response, quantity),  // 6.2
         entry(0x03, "Read Holding Registers", kFixed8, kCounted2, reply, holding_registers, read,
-              125, decode_read_request, decode_read_registers_response),  // 6.3
+              125, decode_read_request, decode_read_registers_response, quantity),  // 6.3
         entry(0x04, "Read Input Registers", kFixed8, kCounted2, reply, input_registers, read,
-              125, decode_read_request, decode_read_registers_response),  // 6.4
+              125, decode_read_request, decode_read_registers_response, quantity),  // 6.4
         entry(0x05, "Write Single Coil", kFixed8, kFixed8, echo, coils, write, 0,  // 6.5
-              decode_write_single_coil, decode_write_single_coil),
+              decode_write_single_coil, decode_write_single_coil, on_off, true),
         entry(0x06, "Write Single Register", kFixed8, kFixed8, echo, holding_registers, write,
-              0, decode_write_single_register, decode_write_single_register),  // 6.6
+              0, decode_write_single_register, decode_write_single_register,  // 6.6
+              RequestWord::none, true),
         entry(0x07, "Read Exception Status", kFixed4, L::fixed(5), reply, none, DataAccess::none,
               0, decode_bare_request, decode_exception_status_response),  // 6.7
         entry(0x08, "Diagnostics", L::computed(diagnostics_length),  // 6.8
@@ -102,9 +108,11 @@ std::array<FunctionSpec, 128> make_table() {
         entry(0x0C, "Get Comm Event Log", kFixed4, kCounted2, reply, none, DataAccess::none, 0,
               decode_bare_request, decode_comm_event_log_response),  // 6.10
         entry(0x0F, "Write Multiple Coils", L::counted(6), kFixed8, reply, coils, write, 1968,
-              decode_write_multiple_request, decode_write_multiple_response),  // 6.11
+              decode_write_multiple_request, decode_write_multiple_response,  // 6.11
+              quantity, true),
         entry(0x10, "Write Multiple Registers", L::counted(6), kFixed8, reply, holding_registers,
-              write, 123, decode_write_multiple_request, decode_write_multiple_response),  // 6.12
+              write, 123, decode_write_multiple_request, decode_write_multiple_response,  // 6.12
+              quantity, true),
         entry(0x11, "Report Server ID", kFixed4, kCounted2, reply, none, DataAccess::none, 0,
               decode_bare_request, decode_report_server_id_response),  // 6.13
         entry(0x14, "Read File Record", kCounted2, kCounted2, reply, none, DataAccess::none, 0,
@@ -116,7 +124,7 @@ std::array<FunctionSpec, 128> make_table() {
         // 6.17: the read quantity's limit; the write part's (121) is the decoder's.
         entry(0x17, "Read/Write Multiple Registers", L::counted(10), kCounted2, reply,
               holding_registers, read_write, 125, decode_read_write_request,
-              decode_read_registers_response),
+              decode_read_registers_response, quantity),
         entry(0x18, "Read FIFO Queue", L::fixed(6), L::computed(fifo_answer_length), reply, none,
               DataAccess::none, 31, decode_read_fifo_request, decode_read_fifo_response),  // 6.18
         entry(0x2B, "Encapsulated Interface Transport",  // 6.19-6.21

@@ -110,6 +110,8 @@ enum class Answer : std::uint8_t {
 struct PduDecoding;
 using PduDecoder = void (*)(PduDecoding&);
 
+enum class RequestWord : std::uint8_t { none, quantity, on_off };
+
 struct FunctionSpec {
     std::uint8_t code = 0;
     std::string name;  // "Read Holding Registers"; "Function 0x41" for codes without one
@@ -121,6 +123,11 @@ struct FunctionSpec {
     // The most items one request may read or write (section 6), 0 where it carries no
     // quantity.
     std::uint16_t max_quantity = 0;
+    // The request's word after the address (bytes 4-5), which the framer checks in a frame
+    // whose CRC fails: a quantity up to max_quantity, or a coil's FF00 (on) or 0000 (off),
+    // all else illegal (6.5).
+    RequestWord request_word = RequestWord::none;
+    bool answer_repeats_word = false;  // the answer repeats the address and that word
     PduDecoder decode_request = nullptr;
     PduDecoder decode_response = nullptr;  // normal answers; exceptions decode alike for all
     // A device's own function: the profile table its data refers to ("eeprom"), in place

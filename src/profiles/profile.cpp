@@ -180,6 +180,8 @@ FunctionSpec own_function(std::uint8_t code) {
     f.table = DataTable::none;
     f.access = DataAccess::none;
     f.max_quantity = 0;
+    f.request_word = RequestWord::none;
+    f.answer_repeats_word = false;
     f.decode_request = f.decode_response = decode_data_bytes;
     f.device_table = "holding";
     return f;
