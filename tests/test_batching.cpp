@@ -225,6 +225,24 @@ TEST(DamagedFrameReadings, AnAddressSeenOnTheBusIsLikelierThanAJunkByte) {
     EXPECT_EQ(r[6].frame.bytes, kRead1);
 }
 
+TEST(DamagedFrameReadings, AJunkByteBeforeTwoDamagedFramesStaysApart) {
+    // 00 06 02 02 93 00 50 xx also reads as a broadcast write; the read of 80 inputs after
+    // the 00 ends where its answer begins, which ends where the next frame does.
+    const test::Bytes broadcast = test::with_crc({0x00, 0x06, 0x00, 0x01, 0x00, 0x05});
+    const test::Bytes read = damaged(test::with_crc({0x06, 0x02, 0x02, 0x93, 0x00, 0x50}));
+    const test::Bytes answer = damaged(test::with_crc(
+        {0x06, 0x02, 0x0A, 0x9B, 0xB5, 0x0F, 0x32, 0xE8, 0x8D, 0x01, 0xB4, 0x00, 0x01}));
+    Batched bus;
+    bus.chunk({kRead6, kAnswer6}).chunk({broadcast}).chunk({{0x00}, read, answer, kRead1});
+    const auto& r = bus.run();
+    ASSERT_EQ(r.size(), 7U);
+    EXPECT_EQ(r[3].kind, Kind::noise);
+    EXPECT_EQ(r[3].frame.bytes, test::Bytes{0x00});
+    expect_damaged(r[4], read);
+    expect_damaged(r[5], answer);
+    EXPECT_EQ(r[6].frame.bytes, kRead1);
+}
+
 TEST(DamagedFrameReadings, AQuantityTwoBitErrorsFromAnyAllowedIsUnlikely) {
     // 05 03 02 6C 85 54 E7 5B also reads as a read of 0x8554 registers, ending where the
     // next frame begins; the answer, with a junk byte after it, is the likelier.

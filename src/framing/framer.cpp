@@ -704,13 +704,14 @@ void Framer::classify_unframed(std::size_t from, std::size_t to) {
     while (start < to) {
         const DamagedFit fit = lengths_apply ? damaged_frame(start, to, false, true) : DamagedFit{};
         // A junk byte or two before a damaged frame can read as a frame of its own: the
-        // frame after them wins when it ends where the next frame or a proven silence
-        // begins and its reading is much the likelier.
+        // frame after them wins when its reading is much the likelier and it ends where the
+        // next frame or a proven silence begins, or (by a wider margin) where another
+        // damaged frame that ends so begins.
         std::size_t junk = 0;
         for (std::size_t n = 1; fit.length != 0 && junk == 0 && n <= kMaxJunk && start + n < to;
              ++n) {
-            const DamagedFit there = damaged_frame(start + n, to, true, false);
-            if (there.where == 3 && there.rank >= fit.rank + 2) junk = n;
+            const DamagedFit there = damaged_frame(start + n, to, true, true);
+            if (there.rank >= fit.rank + (there.where == 3 ? 2 : 3)) junk = n;
         }
         if (junk != 0) {
             emit(start, junk, RecordClass::noise, Reading::unknown, Delimiter::gap, {});
