@@ -277,6 +277,24 @@ TEST(DamagedFrameReadings, TheAnswerToAWriteOfSeveralRepeatsItsQuantity) {
     EXPECT_EQ(r[5].frame.bytes, read_answer);
 }
 
+TEST(DamagedFrameReadings, TheAwaitedAnswerToAWriteIsNotASecondWrite) {
+    // Slave 13's answer to a write of 50 coils, then a read whose function code took a hit
+    // (04 -> 14): the 16 bytes also read as a write of 50 coils (7 bytes of them) whose
+    // byte count (D1) took it, ending where the next frame begins.
+    const test::Bytes write = test::with_crc(
+        {0x0D, 0x0F, 0x00, 0x20, 0x00, 0x32, 0x07, 0x01, 0x02, 0x03, 0x04, 0x05, 0x06, 0x01});
+    const test::Bytes answer = damaged(test::with_crc({0x0D, 0x0F, 0x00, 0x20, 0x00, 0x32}));
+    test::Bytes read = test::with_crc({0x05, 0x04, 0x01, 0x34, 0x00, 0x03});
+    read[1] = 0x14;
+    Batched bus;
+    bus.chunk({kRead1, kAnswer1}).chunk({write}).chunk({answer, read, kRead6});
+    const auto& r = bus.run();
+    ASSERT_GE(r.size(), 5U);
+    expect_damaged(r[3], answer);
+    EXPECT_EQ(r[3].frame.reading, Reading::response);
+    EXPECT_EQ(r.back().frame.bytes, kRead6);
+}
+
 TEST(DamagedFrameReadings, AnExceptionOfAnUnknownFunctionInsideADamagedAnswerIsByChance) {
     // Slave 6's answer of 5 registers, its last data byte hit, holds 11 C1 02 and their
     // CRC: an exception answer to function 41, which no table knows.

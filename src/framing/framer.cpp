@@ -857,8 +857,9 @@ Framer::DamagedFit Framer::damaged_frame(std::size_t start, std::size_t to,
         if (asked > spec.max_quantity) asked = 0;
     }
     const bool counted_as_asked = asked != 0 && head[2] == bytes_for(asked);
+    const bool answer_awaited = awaited_function && awaited->slave == head[0];
     const int response_likely =
-        awaited_function && (awaited->slave == head[0] || counted_as_asked) ? 2
+        answer_awaited || counted_as_asked                                  ? 2
         : !exception && spec.answer_repeats_word                            ? word_likely
         : awaited_function                                                  ? 1
                                                                             : 0;
@@ -867,7 +868,8 @@ Framer::DamagedFit Framer::damaged_frame(std::size_t start, std::size_t to,
     const int known_slave = slaves_seen_.test(head[0]) ? 1 : 0;
     // A byte count and a quantity that disagree: one of them took the hit. Both lengths
     // are readings, and where they end decides (a write's own quantity, a read answer's
-    // request's).
+    // request's); not a write's quantity where this slave's answer to it is awaited (the
+    // bytes are likelier that answer than a second write).
     struct Candidate {
         Role role;
         FrameLength length;
@@ -890,7 +892,9 @@ Framer::DamagedFit Framer::damaged_frame(std::size_t start, std::size_t to,
         if (from_quantity) likely = 1;
         candidates[count++] = {role, lengths.of(role), likely};
         // The quantity's length only where it ends at a boundary and nothing likelier does.
-        if (from_quantity) candidates[count++] = {role, FrameLength::fixed_at(*from_quantity), 0};
+        if (from_quantity && !(role == Role::request && answer_awaited)) {
+            candidates[count++] = {role, FrameLength::fixed_at(*from_quantity), 0};
+        }
     }
     for (const Candidate& candidate : std::span(candidates).first(count)) {
         const Role role = candidate.role;
