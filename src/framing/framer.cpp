@@ -970,8 +970,9 @@ std::optional<bool> Framer::found_by_chance(const Attempt& there, std::size_t at
         }
     }
     // And one found by its CRC alone (a function without a known length, or the CRC's
-    // bytes swapped) inside the reading of a damaged frame from pos_ that ends where the
-    // next frame or a silence begins.
+    // bytes swapped), or an exception to a function code no table knows (5 bytes whose
+    // shape one position in two has), inside the reading of a damaged frame from pos_
+    // that ends where the next frame or a silence begins.
     const std::uint8_t function = bytes_[at + 1];
     const bool unknown_exception =
         (function & 0x80U) != 0 &&
