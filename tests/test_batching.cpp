@@ -207,6 +207,16 @@ void expect_damaged(const Record& r, const test::Bytes& bytes) {
     EXPECT_TRUE(r.notes.has(note_id::crc_mismatch)) << "record " << r.number;
 }
 
+// A write of 50 coils (7 bytes of them) to `slave` at `address`, and its answer.
+test::Bytes write_50_coils(std::uint8_t slave, std::uint16_t address) {
+    return test::with_crc({slave, 0x0F, static_cast<std::uint8_t>(address >> 8U),
+                           static_cast<std::uint8_t>(address & 0xFFU), 0x00, 0x32, 0x07, 0x01,
+                           0x02, 0x03, 0x04, 0x05, 0x06, 0x01});
+}
+test::Bytes answer_to_write(const test::Bytes& write) {
+    return test::with_crc(test::Bytes(write.begin(), write.begin() + 6));
+}
+
 const test::Bytes kRead6 = test::with_crc({0x06, 0x03, 0x00, 0x10, 0x00, 0x01});
 const test::Bytes kAnswer6 = test::with_crc({0x06, 0x03, 0x02, 0x12, 0x34});
 const test::Bytes kRead1 = test::with_crc({0x01, 0x03, 0x00, 0x00, 0x00, 0x02});
@@ -261,9 +271,8 @@ TEST(DamagedFrameReadings, AQuantityTwoBitErrorsFromAnyAllowedIsUnlikely) {
 TEST(DamagedFrameReadings, TheAnswerToAWriteOfSeveralRepeatsItsQuantity) {
     // Slave 5's answer, its address hit (05 -> 01), then a read whose CRC took a hit: the
     // 16 bytes also read as a write of 50 coils whose byte count (44) took it.
-    const test::Bytes write = test::with_crc(
-        {0x05, 0x0F, 0x02, 0x2D, 0x00, 0x32, 0x07, 0x01, 0x02, 0x03, 0x04, 0x05, 0x06, 0x01});
-    test::Bytes answer = test::with_crc({0x05, 0x0F, 0x02, 0x2D, 0x00, 0x32});
+    const test::Bytes write = write_50_coils(0x05, 0x022D);
+    test::Bytes answer = answer_to_write(write);
     answer[0] = 0x01;
     const test::Bytes read = damaged(test::with_crc({0x02, 0x03, 0x00, 0x64, 0x00, 0x01}));
     const test::Bytes read_answer = test::with_crc({0x02, 0x03, 0x02, 0x00, 0x07});
@@ -281,9 +290,8 @@ TEST(DamagedFrameReadings, TheAwaitedAnswerToAWriteIsNotASecondWrite) {
     // Slave 13's answer to a write of 50 coils, then a read whose function code took a hit
     // (04 -> 14): the 16 bytes also read as a write of 50 coils (7 bytes of them) whose
     // byte count (D1) took it, ending where the next frame begins.
-    const test::Bytes write = test::with_crc(
-        {0x0D, 0x0F, 0x00, 0x20, 0x00, 0x32, 0x07, 0x01, 0x02, 0x03, 0x04, 0x05, 0x06, 0x01});
-    const test::Bytes answer = damaged(test::with_crc({0x0D, 0x0F, 0x00, 0x20, 0x00, 0x32}));
+    const test::Bytes write = write_50_coils(0x0D, 0x0020);
+    const test::Bytes answer = damaged(answer_to_write(write));
     test::Bytes read = test::with_crc({0x05, 0x04, 0x01, 0x34, 0x00, 0x03});
     read[1] = 0x14;
     Batched bus;

@@ -822,20 +822,16 @@ Framer::DamagedFit Framer::damaged_frame(std::size_t start, std::size_t to,
     const FunctionSpec& spec = options_.rules->function(head[0], head[1]);
     if (spec.request_length.kind == LengthRule::Kind::search) return chosen;
     const bool reads = spec.access == DataAccess::read && spec.max_quantity != 0;
-    const unsigned word = head.size() < 6 ? 0U : (unsigned{head[4]} << 8U) | head[5];
-    const auto allowed = [&](unsigned w) {
-        return spec.request_word == RequestWord::on_off ? w == 0xFF00 || w == 0
-                                                        : w >= 1 && w <= spec.max_quantity;
-    };
-    const auto one_bit_from_allowed = [&](unsigned w) {
+    const auto word = static_cast<std::uint16_t>(head.size() < 6 ? 0 : (head[4] << 8U) | head[5]);
+    const auto one_bit_from_allowed = [&] {
         for (unsigned bit = 0; bit < 16; ++bit) {
-            if (allowed(w ^ (1U << bit))) return true;
+            if (spec.allows_request_word(static_cast<std::uint16_t>(word ^ (1U << bit)))) return true;
         }
         return false;
     };
     const int word_likely = head.size() < 6 || spec.request_word == RequestWord::none ? 1
-                            : allowed(word)                                          ? 2
-                            : one_bit_from_allowed(word)                             ? 0
+                            : spec.allows_request_word(word)                         ? 2
+                            : one_bit_from_allowed()                                 ? 0
                                                                                      : -1;
     const int request_likely = head[0] == 0 && reads ? 0 : word_likely;
     const AwaitedAnswer* awaited =

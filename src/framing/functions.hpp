@@ -133,6 +133,12 @@ struct FunctionSpec {
     // A device's own function: the profile table its data refers to ("eeprom"), in place
     // of `table`.
     std::string device_table;
+
+    // Whether `word` is a request word this function allows (request_word not none).
+    [[nodiscard]] bool allows_request_word(std::uint16_t word) const {
+        return request_word == RequestWord::on_off ? word == 0xFF00 || word == 0x0000
+                                                   : word >= 1 && word <= max_quantity;
+    }
 };
 
 // The standard entry of a function code (the exception bit ignored): its section 6 entry,
