@@ -207,6 +207,29 @@ void expect_damaged(const Record& r, const test::Bytes& bytes) {
     EXPECT_TRUE(r.notes.has(note_id::crc_mismatch)) << "record " << r.number;
 }
 
+// The records from `at` on: `noise` alone, each of `frames` as the damaged frame it is,
+// then the frame `last`, and no more.
+void expect_noise_then_damaged(const std::vector<Record>& r, std::size_t at,
+                               const test::Bytes& noise, std::initializer_list<test::Bytes> frames,
+                               const test::Bytes& last) {
+    ASSERT_EQ(r.size(), at + frames.size() + 2);
+    EXPECT_EQ(r[at].kind, Kind::noise);
+    EXPECT_EQ(r[at].frame.bytes, noise);
+    std::size_t i = at + 1;
+    for (const test::Bytes& frame : frames) expect_damaged(r[i++], frame);
+    EXPECT_EQ(r[i].frame.bytes, last);
+}
+
+// After two frames and a write, `answer` read as the damaged answer it is, then whatever
+// the bytes after it make, up to the frame `last`.
+void expect_awaited_answer_found(const std::vector<Record>& r, const test::Bytes& answer,
+                                 const test::Bytes& last) {
+    ASSERT_GE(r.size(), 5U);
+    expect_damaged(r[3], answer);
+    EXPECT_EQ(r[3].frame.reading, Reading::response);
+    EXPECT_EQ(r.back().frame.bytes, last);
+}
+
 // A write of 50 coils (7 bytes of them) to `slave` at `address`, and its answer.
 test::Bytes write_50_coils(std::uint8_t slave, std::uint16_t address) {
     return test::with_crc({slave, 0x0F, static_cast<std::uint8_t>(address >> 8U),
@@ -227,30 +250,22 @@ TEST(DamagedFrameReadings, AnAddressSeenOnTheBusIsLikelierThanAJunkByte) {
     const test::Bytes write = damaged(test::with_crc({0x06, 0x06, 0x00, 0x10, 0x12, 0x34}));
     Batched bus;
     bus.chunk({kRead6, kAnswer6}).chunk({kRead1, kAnswer1}).chunk({{0xFF}, write, kRead1});
-    const auto& r = bus.run();
-    ASSERT_EQ(r.size(), 7U);
-    EXPECT_EQ(r[4].kind, Kind::noise);
-    EXPECT_EQ(r[4].frame.bytes, test::Bytes{0xFF});
-    expect_damaged(r[5], write);
-    EXPECT_EQ(r[6].frame.bytes, kRead1);
+    expect_noise_then_damaged(bus.run(), 4, {0xFF}, {write}, kRead1);
 }
 
 TEST(DamagedFrameReadings, AJunkByteBeforeTwoDamagedFramesStaysApart) {
     // 00 06 02 02 93 00 50 xx also reads as a broadcast write; the read of 80 inputs after
-    // the 00 ends where its answer begins, which ends where the next frame does.
+    // the 00 ends where its answer begins, which ends where the next frame does. Both
+    // functions have been seen on this bus.
     const test::Bytes broadcast = test::with_crc({0x00, 0x06, 0x00, 0x01, 0x00, 0x05});
+    const test::Bytes read_inputs = test::with_crc({0x06, 0x02, 0x00, 0x00, 0x00, 0x08});
+    const test::Bytes inputs = test::with_crc({0x06, 0x02, 0x01, 0x5A});
     const test::Bytes read = damaged(test::with_crc({0x06, 0x02, 0x02, 0x93, 0x00, 0x50}));
     const test::Bytes answer = damaged(test::with_crc(
         {0x06, 0x02, 0x0A, 0x9B, 0xB5, 0x0F, 0x32, 0xE8, 0x8D, 0x01, 0xB4, 0x00, 0x01}));
     Batched bus;
-    bus.chunk({kRead6, kAnswer6}).chunk({broadcast}).chunk({{0x00}, read, answer, kRead1});
-    const auto& r = bus.run();
-    ASSERT_EQ(r.size(), 7U);
-    EXPECT_EQ(r[3].kind, Kind::noise);
-    EXPECT_EQ(r[3].frame.bytes, test::Bytes{0x00});
-    expect_damaged(r[4], read);
-    expect_damaged(r[5], answer);
-    EXPECT_EQ(r[6].frame.bytes, kRead1);
+    bus.chunk({read_inputs, inputs}).chunk({broadcast}).chunk({{0x00}, read, answer, kRead1});
+    expect_noise_then_damaged(bus.run(), 3, {0x00}, {read, answer}, kRead1);
 }
 
 TEST(DamagedFrameReadings, AQuantityTwoBitErrorsFromAnyAllowedIsUnlikely) {
@@ -296,11 +311,7 @@ TEST(DamagedFrameReadings, TheAwaitedAnswerToAWriteIsNotASecondWrite) {
     read[1] = 0x14;
     Batched bus;
     bus.chunk({kRead1, kAnswer1}).chunk({write}).chunk({answer, read, kRead6});
-    const auto& r = bus.run();
-    ASSERT_GE(r.size(), 5U);
-    expect_damaged(r[3], answer);
-    EXPECT_EQ(r[3].frame.reading, Reading::response);
-    EXPECT_EQ(r.back().frame.bytes, kRead6);
+    expect_awaited_answer_found(bus.run(), answer, kRead6);
 }
 
 TEST(DamagedFrameReadings, AnExceptionOfAnUnknownFunctionInsideADamagedAnswerIsByChance) {
@@ -320,6 +331,124 @@ TEST(DamagedFrameReadings, AnExceptionOfAnUnknownFunctionInsideADamagedAnswerIsB
     EXPECT_EQ(r[2].frame.bytes, read);
     expect_damaged(r[3], answer);
     EXPECT_EQ(r[4].frame.bytes, kRead1);
+}
+
+TEST(DamagedFrameReadings, AnAnswerToAWriteOfSeveralIsLikelyOnlyWhereAwaited) {
+    // Slave 10's write of 12 registers, its quantity hit (000C -> 001C): its first 8 bytes
+    // also read as the answer to a write of 28, which no request awaits. Its answer's
+    // function code took a hit too (10 -> 30).
+    test::Bytes write = {0x0A, 0x10, 0x03, 0x97, 0x00, 0x0C, 0x18};
+    write.resize(7 + 24, 0x00);
+    write = test::with_crc(write);
+    write[5] = 0x1C;
+    test::Bytes answer = test::with_crc({0x0A, 0x10, 0x03, 0x97, 0x00, 0x0C});
+    answer[1] = 0x30;
+    Batched bus;
+    bus.chunk({kRead6, kAnswer6}).chunk({write, answer, kRead1});
+    const auto& r = bus.run();
+    ASSERT_GE(r.size(), 4U);
+    expect_damaged(r[2], write);
+    EXPECT_EQ(r[2].frame.reading, Reading::request);
+    EXPECT_EQ(r.back().frame.bytes, kRead1);
+}
+
+TEST(DamagedFrameReadings, AnAnswerThatRepeatsTheAwaitedRequestIsLikeliest) {
+    // Slave 3's answer to a write of 2 registers, its CRC hit, then bytes of a function no
+    // table knows: the answer's 8 bytes and 6 more also read as a write of 2 whose byte
+    // count (05) took the hit, ending two bytes before the next frame.
+    const test::Bytes write = test::with_crc({0x03, 0x10, 0x00, 0x04, 0x00, 0x02, 0x04, 0x30,
+                                              0x54, 0x3F, 0xFB});
+    test::Bytes answer = test::with_crc({0x03, 0x10, 0x00, 0x04, 0x00, 0x02});
+    answer[6] = 0x05;
+    const test::Bytes unknown = {0x0C, 0x31, 0x02, 0xE2, 0x00, 0x3D, 0x5D, 0x48};
+    Batched bus;
+    bus.chunk({kRead6, kAnswer6}).chunk({write}).chunk({answer, unknown, kRead1});
+    expect_awaited_answer_found(bus.run(), answer, kRead1);
+}
+
+TEST(DamagedFrameReadings, AFunctionSeenOnTheBusIsLikelierThanOneNeverSeen) {
+    // FF 14 03 00 20 10 1E xx also reads as slave 255's request to read a file record (a
+    // function no frame on this bus has used); slave 20's read of registers, its quantity
+    // hit (001E -> 101E), ends where its damaged answer begins.
+    test::Bytes read = test::with_crc({0x14, 0x03, 0x00, 0x20, 0x00, 0x1E});
+    read[4] = 0x10;
+    test::Bytes data = {0x14, 0x03, 0x3C};
+    for (std::uint8_t i = 0; i < 60; ++i) data.push_back(static_cast<std::uint8_t>(0x41 + i));
+    const test::Bytes answer = damaged(test::with_crc(data));
+    const test::Bytes read20 = test::with_crc({0x14, 0x03, 0x00, 0x00, 0x00, 0x01});
+    const test::Bytes answer20 = test::with_crc({0x14, 0x03, 0x02, 0x00, 0x07});
+    Batched bus;
+    bus.chunk({read20, answer20}).chunk({{0xFF}, read, answer, kRead1});
+    expect_noise_then_damaged(bus.run(), 2, {0xFF}, {read, answer}, kRead1);
+}
+
+TEST(DamagedFrameReadings, ThreeBytesOfNoiseBeforeADamagedFrameAtTheNextFrameStayApart) {
+    // AC 90 D2 xx reads as an exception to slave 172; slave 4's read after them, its CRC
+    // hit, ends where its answer begins.
+    const test::Bytes read = damaged(test::with_crc({0x04, 0x03, 0x00, 0x0E, 0x00, 0x01}));
+    const test::Bytes answer = test::with_crc({0x04, 0x03, 0x02, 0x46, 0x03});
+    Batched bus;
+    bus.chunk({kRead6, kAnswer6}).chunk({{0xAC, 0x90, 0xD2}, read, answer});
+    expect_noise_then_damaged(bus.run(), 2, {0xAC, 0x90, 0xD2}, {read}, answer);
+}
+
+TEST(DamagedFrameReadings, AFrameByCrcInsideADamagedAnswerBeforeADamagedFrameIsByChance) {
+    // Slave 24's answer of 30 registers, a data byte hit, holds 77 34 ... 2B, whose last
+    // two bytes are its CRC by chance (a function no table knows, its length found by the
+    // CRC); a read whose address took a hit (08 -> 18) follows it, and ends where its
+    // answer begins.
+    const test::Bytes read = test::with_crc({0x18, 0x04, 0x02, 0x4C, 0x00, 0x1E});
+    const test::Bytes answer = {
+        0x18, 0x04, 0x3C, 0xBE, 0x73, 0x8C, 0x2F, 0x3F, 0xBD, 0xAB, 0x75, 0x85, 0xE9, 0xDB, 0x03,
+        0x1F, 0xBB, 0x7F, 0x9E, 0xFC, 0xEC, 0x81, 0x27, 0x38, 0xA8, 0x85, 0x83, 0x77, 0x34, 0x3E,
+        0x9D, 0xCE, 0xBC, 0x8D, 0xD9, 0x74, 0x09, 0xDA, 0x3B, 0x4D, 0x78, 0x8F, 0x13, 0xCC, 0xF8,
+        0xB2, 0xAC, 0xD4, 0xB0, 0x4C, 0xC9, 0x05, 0x96, 0xF9, 0xCF, 0xE3, 0x2B, 0xA1, 0xC0, 0x3D,
+        0x70, 0x9D, 0x24, 0x36, 0xA2};
+    test::Bytes next = test::with_crc({0x08, 0x03, 0x02, 0xDE, 0x00, 0x0C});
+    next[0] = 0x18;
+    const test::Bytes next_answer = test::with_crc(
+        {0x08, 0x03, 0x18, 0xBE, 0x6B, 0x53, 0x37, 0x31, 0x62, 0x7D, 0xBD, 0x49, 0x36, 0x89, 0xFE,
+         0x7B, 0x96, 0xF1, 0x92, 0x9B, 0x98, 0xAE, 0x76, 0x8D, 0x20, 0x73, 0x48});
+    Batched bus;
+    bus.chunk({kRead6, kAnswer6});
+    // In the chunks a 16 ms latency timer handed them over in: the frame by CRC is whole
+    // before the damaged answer is, and whether the damaged read ends at a frame is known
+    // only from the last chunk.
+    const test::Bytes all = test::concat({read, answer, next, next_answer});
+    std::size_t from = 0;
+    for (const std::size_t to : {6U, 17U, 33U, 49U, 65U, 73U, 83U, 110U}) {
+        bus.chunk({test::Bytes(all.begin() + static_cast<std::ptrdiff_t>(from),
+                               all.begin() + static_cast<std::ptrdiff_t>(to))});
+        from = to;
+    }
+    ASSERT_EQ(from, all.size());
+    const auto& r = bus.run();
+    ASSERT_EQ(r.size(), 6U);
+    ASSERT_EQ(check_crc(answer).status, CrcStatus::bad);
+    expect_damaged(r[3], answer);
+    expect_damaged(r[4], next);
+    EXPECT_EQ(r[5].frame.bytes, next_answer);
+}
+
+TEST(DamagedFrameReadings, AReadingEndsWhereTwoDamagedFramesThatEndAtTheNextFrameBegin) {
+    // 1A 18 03 01 CD 10 reads as a request to slave 26 (Read FIFO Queue); slave 24's read
+    // after the 1A, its quantity hit (0011 -> 1011), ends where its damaged answer begins,
+    // which ends where slave 1's read, its CRC hit, begins, which ends at its answer.
+    test::Bytes read = test::with_crc({0x18, 0x03, 0x01, 0xCD, 0x00, 0x11});
+    read[4] = 0x10;
+    const test::Bytes answer = {0x18, 0x03, 0x22, 0x7E, 0x3D, 0x9D, 0x95, 0xAB, 0x96, 0xD5,
+                                0xF6, 0x03, 0xE7, 0xDF, 0x46, 0xC6, 0x24, 0x75, 0x2C, 0x51,
+                                0xBC, 0x92, 0x87, 0x30, 0x5F, 0xEE, 0xE9, 0xC7, 0x43, 0x1D,
+                                0x11, 0xA4, 0x8B, 0xB6, 0xEE, 0xF2, 0x67, 0xF1, 0xE1};
+    const test::Bytes read1 = damaged(test::with_crc({0x01, 0x03, 0x00, 0x00, 0x00, 0x01}));
+    const test::Bytes answer1 = test::with_crc({0x01, 0x03, 0x02, 0x7F, 0xAE});
+    const test::Bytes read24 = test::with_crc({0x18, 0x03, 0x00, 0x00, 0x00, 0x01});
+    const test::Bytes answer24 = test::with_crc({0x18, 0x03, 0x02, 0x00, 0x05});
+    Batched bus;
+    bus.chunk({read24, answer24}).chunk({kRead1, kAnswer1});
+    bus.chunk({{0x1A}, read, answer, read1, answer1});
+    ASSERT_EQ(check_crc(answer).status, CrcStatus::bad);
+    expect_noise_then_damaged(bus.run(), 4, {0x1A}, {read, answer, read1}, answer1);
 }
 
 class DamagedFrames : public ::testing::TestWithParam<Case> {};
@@ -398,7 +527,7 @@ TEST_P(DamagedFrames, AreOneRecordEachAtTheirTrueBoundaries) {
     // frames still come out cut elsewhere: where two or three damaged frames (or junk and
     // a damaged frame) touch with no silence to show between them, one whose function
     // code took the hit among them, the readings that fit can end in more than one place.
-    const std::size_t allowed = c.delivery == Delivery::per_byte ? 0 : 4;
+    const std::size_t allowed = c.delivery == Delivery::per_byte ? 0 : 3;
     EXPECT_LE(missed, allowed) << missed << " frames not found as sent:" << misses;
     EXPECT_LE(by_chance.size(), 3U) << "valid frames not sent, over sent ones";
 }

@@ -28,6 +28,10 @@ namespace {
 // The stray bytes an RS-485 driver may leave around a frame as it switches.
 constexpr std::size_t kMaxJunk = 2;
 
+// How many damaged frames may lie between a damaged frame's reading and the next frame
+// or proven silence for where it ends to count (a request and its answer, both hit).
+constexpr int kMaxChain = 2;
+
 // A gap before the first byte of the input or of a new channel: always a boundary.
 constexpr Nanos kBoundary = std::numeric_limits<Nanos>::max();
 
@@ -702,16 +706,21 @@ void Framer::classify_unframed(std::size_t from, std::size_t to) {
     const bool lengths_apply = seen_valid_frame_ && !cut_at_stop;
     std::size_t start = from;
     while (start < to) {
-        const DamagedFit fit = lengths_apply ? damaged_frame(start, to, false, true) : DamagedFit{};
+        const DamagedFit fit =
+            lengths_apply ? damaged_frame(start, to, false, kMaxChain) : DamagedFit{};
         // A junk byte or two before a damaged frame can read as a frame of its own: the
         // frame after them wins when its reading is much the likelier and it ends where the
         // next frame or a proven silence begins, or (by a wider margin) where another
-        // damaged frame that ends so begins.
+        // damaged frame that ends so begins. So do three bytes of line noise, before a
+        // frame that ends at the next frame by a wider margin still.
         std::size_t junk = 0;
-        for (std::size_t n = 1; fit.length != 0 && junk == 0 && n <= kMaxJunk && start + n < to;
-             ++n) {
-            const DamagedFit there = damaged_frame(start + n, to, true, true);
-            if (there.rank >= fit.rank + (there.where == 3 ? 2 : 3)) junk = n;
+        for (std::size_t n = 1;
+             fit.length != 0 && junk == 0 && n <= kMaxJunk + 1 && start + n < to; ++n) {
+            const DamagedFit there = damaged_frame(start + n, to, true, kMaxChain);
+            const int margin = n > kMaxJunk ? 4 : there.where == 3 ? 2 : 3;
+            const bool likelier =
+                there.rank >= fit.rank + margin && (n <= kMaxJunk || there.where == 3);
+            if (likelier) junk = n;
         }
         if (junk != 0) {
             emit(start, junk, RecordClass::noise, Reading::unknown, Delimiter::gap, {});
@@ -738,7 +747,7 @@ void Framer::classify_unframed(std::size_t from, std::size_t to) {
                                            : std::min(to, start + kMaxAdu);
         for (std::size_t at = start + 1; at < search_end && lengths_apply; ++at) {
             if (proven_gap_before(at)) break;
-            if (damaged_frame(at, to, true, true).length != 0) {
+            if (damaged_frame(at, to, true, kMaxChain).length != 0) {
                 end = std::min(end, at);
                 break;
             }
@@ -802,7 +811,7 @@ bool Framer::proven_gap_before(std::size_t at) const {
 }
 
 Framer::DamagedFit Framer::damaged_frame(std::size_t start, std::size_t to,
-                                         bool at_boundary_only, bool chain) const {
+                                         bool at_boundary_only, int chain) const {
     DamagedFit chosen;
     const std::size_t avail = to - start;
     if (avail < kMinAdu) return chosen;
@@ -810,15 +819,16 @@ Framer::DamagedFit Framer::damaged_frame(std::size_t start, std::size_t to,
     const FrameLengths lengths = options_.rules->frame_lengths(head);
     const bool answer_first = expects_answer_at(start, head);
     // Only a function whose length the table gives (noise often holds another). Of its
-    // readings, the likelier, by how its fields bear it out (2: by evidence that chance
-    // rarely gives; 1: by what the reading allows; 0: against it, by one bit error; -1: by
-    // more than one):
+    // readings, the likelier, by how its fields bear it out (3: by evidence chance gives
+    // once in billions; 2: by evidence that chance rarely gives; 1: by what the reading
+    // allows; 0: against it, by one bit error; -1: by more than one):
     //   a request: its word (a quantity, a coil's FF00 or 0000) as allowed 2, one bit
     //     from it 0, further -1, none to check 1; a read sent to everyone 0;
-    //   an answer: awaited from this slave, or with the byte count asked, 2; an echo or
-    //     the answer to a write of several, as its word; of the function awaited from
-    //     another slave 1 (the address may be the byte that took the hit); awaited by
-    //     none 0.
+    //   an answer: an echo or the answer to a write of several that repeats the awaited
+    //     request's first six bytes 3; awaited from this slave, or with the byte count
+    //     asked, 2; an echo or the answer to a write of several, of the function awaited
+    //     from another slave, as its word; another answer of that function 1 (the address
+    //     may be the byte that took the hit); awaited by none 0.
     const FunctionSpec& spec = options_.rules->function(head[0], head[1]);
     if (spec.request_length.kind == LengthRule::Kind::search) return chosen;
     const bool reads = spec.access == DataAccess::read && spec.max_quantity != 0;
@@ -854,14 +864,21 @@ Framer::DamagedFit Framer::damaged_frame(std::size_t start, std::size_t to,
     }
     const bool counted_as_asked = asked != 0 && head[2] == bytes_for(asked);
     const bool answer_awaited = awaited_function && awaited->slave == head[0];
+    // An echo, or the answer to a write of several, that repeats the awaited request's
+    // first six bytes to the bit: 1 in 2^32 by chance.
+    const bool repeats_request = answer_awaited && !exception && spec.answer_repeats_word &&
+                                 head.size() >= 6 && awaited->request.size() >= 6 &&
+                                 std::ranges::equal(head.first(6), awaited->request.first(6));
     const int response_likely =
-        answer_awaited || counted_as_asked                                  ? 2
-        : !exception && spec.answer_repeats_word                            ? word_likely
+        repeats_request                                                     ? 3
+        : answer_awaited || counted_as_asked                                ? 2
+        : awaited_function && !exception && spec.answer_repeats_word        ? word_likely
         : awaited_function                                                  ? 1
                                                                             : 0;
-    // An address that valid frames have shown on this bus is likelier than one they have
-    // not (a junk byte read as an address).
-    const int known_slave = slaves_seen_.test(head[0]) ? 1 : 0;
+    // An address, and a function, that valid frames have shown on this bus are likelier
+    // than ones they have not (a junk byte read as an address, a data byte as a function).
+    const int seen_on_bus = (slaves_seen_.test(head[0]) ? 1 : 0) +
+                            (functions_seen_.test(head[1] & 0x7FU) ? 1 : 0);
     // A byte count and a quantity that disagree: one of them took the hit. Both lengths
     // are readings, and where they end decides (a write's own quantity, a read answer's
     // request's); not a write's quantity where this slave's answer to it is awaited (the
@@ -909,17 +926,18 @@ Framer::DamagedFit Framer::damaged_frame(std::size_t start, std::size_t to,
         // off): noise between true silences stays noise.
         if (options_.batching.hold == 0 && gap_after(end - 1, to) - end > kMaxJunk) continue;
         // Where it ends: where the next frame or a proven silence begins (3); where
-        // another damaged frame that ends so begins, or a junk byte or two before such a
-        // place (2); elsewhere (0).
+        // another damaged frame that ends so begins (or one or more further damaged frames
+        // do, up to `chain`), or a junk byte or two before such a place (2); elsewhere (0).
         const bool at_boundary = end == to || proven_gap_before(end);
-        const bool chained = !at_boundary && chain && damaged_frame(end, to, true, false).length != 0;
+        const bool chained = !at_boundary && chain > 0 &&
+                             damaged_frame(end, to, true, chain - 1).length != 0;
         if (at_boundary_only && !at_boundary && !chained) continue;
         bool near_boundary = false;
         for (std::size_t junk = 1; junk <= kMaxJunk && !at_boundary && end + junk <= to; ++junk) {
             near_boundary = near_boundary || end + junk == to || proven_gap_before(end + junk);
         }
         const int where = at_boundary ? 3 : chained || near_boundary ? 2 : 0;
-        const int rank = where + candidate.likely + known_slave;
+        const int rank = where + candidate.likely + seen_on_bus;
         // One that ends nowhere in particular and that its own fields argue against is none.
         if (rank < 0) continue;
         if (rank > chosen.rank) {
@@ -968,7 +986,8 @@ std::optional<bool> Framer::found_by_chance(const Attempt& there, std::size_t at
     // And one found by its CRC alone (a function without a known length, or the CRC's
     // bytes swapped), or an exception to a function code no table knows (5 bytes whose
     // shape one position in two has), inside the reading of a damaged frame from pos_
-    // that ends where the next frame or a silence begins.
+    // that ends where the next frame or a silence begins, or where another damaged frame
+    // that ends so begins.
     const std::uint8_t function = bytes_[at + 1];
     const bool unknown_exception =
         (function & 0x80U) != 0 &&
@@ -976,19 +995,28 @@ std::optional<bool> Framer::found_by_chance(const Attempt& there, std::size_t at
     const bool weak = there.delimiter == Delimiter::crc_search ||
                       there.crc.status == CrcStatus::swapped || unknown_exception;
     if (weak && seen_valid_frame_ && !(stopped_ && at_end)) {
-        const std::size_t damaged = damaged_frame(pos_, bytes_.size(), false, false).length;
+        // Whether the next frame or a proven silence begins at `from`; std::nullopt when
+        // bytes still to come decide.
+        const auto at_frame = [&](std::size_t from) -> std::optional<bool> {
+            if (from == bytes_.size()) return at_end ? std::optional(true) : std::nullopt;
+            if (proven_gap_before(from)) return true;
+            const Attempt next = attempt_at(from, at_end);
+            if (next.outcome == Outcome::need_more) return std::nullopt;
+            return next.outcome == Outcome::frame && next.crc.status == CrcStatus::ok;
+        };
+        const std::size_t damaged = damaged_frame(pos_, bytes_.size(), false, 0).length;
         const std::size_t damaged_end = pos_ + damaged;
         if (damaged != 0 && damaged_end >= end) {
-            if (damaged_end == bytes_.size()) {
-                if (at_end) return true;
-                pending = true;
-            } else if (proven_gap_before(damaged_end)) {
-                return true;
-            } else {
-                const Attempt next = attempt_at(damaged_end, at_end);
-                if (next.outcome == Outcome::frame && next.crc.status == CrcStatus::ok) return true;
-                pending = pending || next.outcome == Outcome::need_more;
-            }
+            const std::optional<bool> next = at_frame(damaged_end);
+            if (next.value_or(false)) return true;
+            const std::size_t second =
+                damaged_end < bytes_.size()
+                    ? damaged_frame(damaged_end, bytes_.size(), false, 0).length
+                    : 0;
+            const std::optional<bool> after_second =
+                second != 0 ? at_frame(damaged_end + second) : std::optional(false);
+            if (after_second.value_or(false)) return true;
+            pending = pending || !next || !after_second;
         }
     }
     if (pending) return std::nullopt;
@@ -1011,8 +1039,8 @@ std::optional<bool> Framer::found_by_chance(const Attempt& there, std::size_t at
         }
     }
     // Only a reading that chance rarely gives: the next frame's start is not known yet.
-    const DamagedFit fit = damaged_frame(pos_, bytes_.size(), false, true);
-    const std::size_t damaged = fit.likely == 2 ? fit.length : 0;
+    const DamagedFit fit = damaged_frame(pos_, bytes_.size(), false, kMaxChain);
+    const std::size_t damaged = fit.likely >= 2 ? fit.length : 0;
     if (damaged == 0 || pos_ + damaged <= at) return false;
     const std::size_t damaged_end = pos_ + damaged;
     if (damaged_end == bytes_.size()) {
@@ -1208,7 +1236,10 @@ void Framer::emit(std::size_t at, std::size_t length, RecordClass cls, Reading r
     pos_ = at + length;
     scan_hint_ = 0;
     if (cls == RecordClass::frame) seen_valid_frame_ = true;
-    if (crc.status == CrcStatus::ok) slaves_seen_.set(frame.bytes[0]);
+    if (crc.status == CrcStatus::ok && frame.bytes.size() >= kMinAdu) {
+        slaves_seen_.set(frame.bytes[0]);
+        functions_seen_.set(frame.bytes[1] & 0x7FU);
+    }
     emit_(frame);
 }
 

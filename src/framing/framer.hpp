@@ -117,20 +117,21 @@ class Framer {
     // A frame whose CRC fails at `start`, before `to` (where the next frame starts): the
     // length its function code (and byte count) gives, with no proven silence inside, and
     // of its readings the likelier; with `at_boundary_only`, only one that ends at `to`, a
-    // proven silence or (with `chain`) where another such frame starts.
+    // proven silence or where another such frame starts (with at most `chain` damaged
+    // frames in a row before `to` or the silence).
     struct DamagedFit {
         std::size_t length = 0;  // 0: no reading fits
         Reading reading = Reading::unknown;
-        int rank = -1;  // where + likely, + 1 for an address seen on this bus
-        // Where it ends: 3 at `to` or a proven silence, 2 where another damaged frame
-        // that ends so starts or a junk byte or two before such a place, 0 elsewhere.
+        int rank = -1;  // where + likely, + 1 each for an address and a function seen
+        // Where it ends: 3 at `to` or a proven silence, 2 where damaged frames that end
+        // so start or a junk byte or two before such a place, 0 elsewhere.
         int where = 0;
-        // How its own fields bear it out, from 2 (evidence chance rarely gives) to -1
-        // (against it by more than one bit error): framer.cpp.
+        // How its own fields bear it out, from 3 (evidence chance all but never gives) to
+        // -1 (against it by more than one bit error): framer.cpp.
         int likely = 0;
     };
     [[nodiscard]] DamagedFit damaged_frame(std::size_t start, std::size_t to,
-                                           bool at_boundary_only, bool chain) const;
+                                           bool at_boundary_only, int chain) const;
     // Whether the frame `there` at `at`, found while looking past bytes from pos_ that
     // start none, is one by chance; std::nullopt when bytes still to come decide.
     [[nodiscard]] std::optional<bool> found_by_chance(const Attempt& there, std::size_t at,
@@ -253,6 +254,7 @@ class Framer {
     // input began in the middle of (a port opened mid-frame), so no length is taken there.
     bool seen_valid_frame_ = false;
     std::bitset<256> slaves_seen_;  // the addresses of frames whose CRC checks
+    std::bitset<128> functions_seen_;  // their function codes, without the exception bit
     bool stopped_ = false;  // finish(true): the bytes at the end were cut by the stop
     // While a packet the capture cut is decided: how many of its bytes it did not keep.
     std::uint32_t not_captured_ = 0;
