@@ -340,9 +340,9 @@ TEST(DamagedFrameReadings, AnAnswerToAWriteOfSeveralIsLikelyOnlyWhereAwaited) {
     test::Bytes write = {0x0A, 0x10, 0x03, 0x97, 0x00, 0x0C, 0x18};
     write.resize(7 + 24, 0x00);
     write = test::with_crc(write);
-    write[5] = 0x1C;
-    test::Bytes answer = test::with_crc({0x0A, 0x10, 0x03, 0x97, 0x00, 0x0C});
+    test::Bytes answer = answer_to_write(write);
     answer[1] = 0x30;
+    write[5] = 0x1C;
     Batched bus;
     bus.chunk({kRead6, kAnswer6}).chunk({write, answer, kRead1});
     const auto& r = bus.run();
@@ -358,7 +358,7 @@ TEST(DamagedFrameReadings, AnAnswerThatRepeatsTheAwaitedRequestIsLikeliest) {
     // count (05) took the hit, ending two bytes before the next frame.
     const test::Bytes write = test::with_crc({0x03, 0x10, 0x00, 0x04, 0x00, 0x02, 0x04, 0x30,
                                               0x54, 0x3F, 0xFB});
-    test::Bytes answer = test::with_crc({0x03, 0x10, 0x00, 0x04, 0x00, 0x02});
+    test::Bytes answer = answer_to_write(write);
     answer[6] = 0x05;
     const test::Bytes unknown = {0x0C, 0x31, 0x02, 0xE2, 0x00, 0x3D, 0x5D, 0x48};
     Batched bus;

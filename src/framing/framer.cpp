@@ -27,6 +27,9 @@ namespace {
 
 // The stray bytes an RS-485 driver may leave around a frame as it switches.
 constexpr std::size_t kMaxJunk = 2;
+// Line noise between transactions that stays apart from a damaged frame after it, by a
+// wider margin than junk.
+constexpr std::size_t kMaxNoise = 3;
 
 // How many damaged frames may lie between a damaged frame's reading and the next frame
 // or proven silence for where it ends to count (a request and its answer, both hit).
@@ -715,7 +718,7 @@ void Framer::classify_unframed(std::size_t from, std::size_t to) {
         // frame that ends at the next frame by a wider margin still.
         std::size_t junk = 0;
         for (std::size_t n = 1;
-             fit.length != 0 && junk == 0 && n <= kMaxJunk + 1 && start + n < to; ++n) {
+             fit.length != 0 && junk == 0 && n <= kMaxNoise && start + n < to; ++n) {
             const DamagedFit there = damaged_frame(start + n, to, true, kMaxChain);
             const int margin = n > kMaxJunk ? 4 : there.where == 3 ? 2 : 3;
             const bool likelier =
@@ -1009,10 +1012,7 @@ std::optional<bool> Framer::found_by_chance(const Attempt& there, std::size_t at
         if (damaged != 0 && damaged_end >= end) {
             const std::optional<bool> next = at_frame(damaged_end);
             if (next.value_or(false)) return true;
-            const std::size_t second =
-                damaged_end < bytes_.size()
-                    ? damaged_frame(damaged_end, bytes_.size(), false, 0).length
-                    : 0;
+            const std::size_t second = damaged_frame(damaged_end, bytes_.size(), false, 0).length;
             const std::optional<bool> after_second =
                 second != 0 ? at_frame(damaged_end + second) : std::optional(false);
             if (after_second.value_or(false)) return true;
