@@ -177,6 +177,24 @@ TEST(ScoreSetting, PiecesOfFramesAtTheEdgesOfALoadedReadAreNotJudged) {
     EXPECT_EQ(score_setting(line, chunks, kNanosPerSecond, true).edge_bytes, 0U);
 }
 
+TEST(ScoreSetting, AFramePartedByMoreThanOneLateWakeIsOnePieceAtAnEdge) {
+    // Woken late twice inside the first request and twice inside the last answer: each
+    // edge holds two records, together less than a frame.
+    const LineSettings line = setting(9600, "8N2");
+    auto chunks = polled_line(line, 6);
+    const auto woken_late = [&](std::size_t from) {
+        for (std::size_t i = from; i < chunks.size(); ++i) chunks[i].time += 10 * test::kMs;
+    };
+    woken_late(3);
+    woken_late(5);
+    woken_late(chunks.size() - 6);
+    woken_late(chunks.size() - 3);
+    const SettingScore s = score_setting(line, chunks, kNanosPerSecond);
+    EXPECT_EQ(s.edge_bytes, 5U + 6U);
+    EXPECT_DOUBLE_EQ(s.coverage(), 1.0);
+    EXPECT_DOUBLE_EQ(s.score, 100.0);
+}
+
 TEST(ScoreSetting, ErrorsThePortReportsAndGarbageScoreLow) {
     const LineSettings line = setting(9600, "8N1");
     auto chunks = polled_line(line, 6);

@@ -42,8 +42,8 @@ struct SettingScore {
     std::uint64_t bad_frames = 0;    // bad CRC or cut short
     std::uint64_t char_errors = 0;   // bytes the port received with a parity or framing error
     // A listen's first and last records when they are pieces of frames that its start and
-    // end cut (one record each, before the first and after the last valid frame): their
-    // bytes are not judged.
+    // end cut (before the first and after the last valid frame, up to a frame's bytes at
+    // each end): their bytes are not judged.
     std::uint64_t edge_bytes = 0;
     std::optional<CharTimeEstimate> timing;
     TimingFit timing_fit = TimingFit::unknown;

@@ -39,12 +39,12 @@ class Counting final : public RecordSink {
         const CrcStatus crc = r.frame.crc.status;
         const bool valid = r.kind != Kind::noise && r.kind != Kind::invalid &&
                            crc != CrcStatus::bad && crc != CrcStatus::none;
-        Edge& edge = score_.frames == 0 ? leading_ : trailing_;
+        // Bytes outside valid frames before the first and since the last.
+        std::uint64_t& edge = score_.frames == 0 ? leading_ : trailing_;
         if (!valid) {
-            ++edge.records;
-            edge.bytes += r.frame.bytes.size();
+            edge += r.frame.bytes.size();
         } else {
-            trailing_ = {};
+            trailing_ = 0;
         }
         if (r.kind == Kind::noise) return;
         if (!valid) {
@@ -59,25 +59,22 @@ class Counting final : public RecordSink {
     }
     void end(const Totals& /*totals*/, const std::vector<std::string>& /*remarks*/) override {}
 
-    // Bytes of the first and last records that are pieces of frames: one record each
-    // before the first and after the last valid frame, no longer than a frame, among
-    // enough valid frames that chance did not make them.
+    // Bytes of the first and last records that are pieces of frames: the records before
+    // the first and after the last valid frame, no more than a frame's bytes together
+    // (a reader woken late more than once parts one frame into several), among enough
+    // valid frames that chance did not make them.
     [[nodiscard]] std::uint64_t edge_bytes() const {
         if (score_.frames < 3) return 0;
-        const auto piece = [](const Edge& e) {
-            return e.records == 1 && e.bytes <= kMaxAdu ? e.bytes : std::uint64_t{0};
+        const auto piece = [](std::uint64_t bytes) {
+            return bytes <= kMaxAdu ? bytes : std::uint64_t{0};
         };
         return piece(leading_) + piece(trailing_);
     }
 
   private:
-    struct Edge {
-        std::uint64_t records = 0;
-        std::uint64_t bytes = 0;
-    };
     SettingScore& score_;
-    Edge leading_;
-    Edge trailing_;
+    std::uint64_t leading_ = 0;
+    std::uint64_t trailing_ = 0;
 };
 
 TimingFit timing_fit(const LineSettings& line, const std::optional<CharTimeEstimate>& timing) {
