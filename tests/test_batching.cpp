@@ -230,6 +230,17 @@ void expect_awaited_answer_found(const std::vector<Record>& r, const test::Bytes
     EXPECT_EQ(r.back().frame.bytes, last);
 }
 
+// `count` records, the last of them `cut`: the start of a frame, read as `reading`, that
+// the end of the input cut short (not a damaged frame).
+void expect_cut_at_end(const std::vector<Record>& r, std::size_t count, const test::Bytes& cut,
+                       Reading reading) {
+    ASSERT_EQ(r.size(), count);
+    EXPECT_EQ(r.back().frame.bytes, cut);
+    EXPECT_EQ(r.back().frame.reading, reading);
+    EXPECT_TRUE(r.back().notes.has(note_id::truncated));
+    EXPECT_FALSE(r.back().notes.has(note_id::crc_mismatch));
+}
+
 // A write of 50 coils (7 bytes of them) to `slave` at `address`, and its answer.
 test::Bytes write_50_coils(std::uint8_t slave, std::uint16_t address) {
     return test::with_crc({slave, 0x0F, static_cast<std::uint8_t>(address >> 8U),
@@ -312,6 +323,26 @@ TEST(DamagedFrameReadings, TheAwaitedAnswerToAWriteIsNotASecondWrite) {
     Batched bus;
     bus.chunk({kRead1, kAnswer1}).chunk({write}).chunk({answer, read, kRead6});
     expect_awaited_answer_found(bus.run(), answer, kRead6);
+}
+
+TEST(DamagedFrameReadings, AnAnswerTheRecordingCutIsCutShortNotADamagedRequest) {
+    // A run killed while slave 3 answered a read of 29 registers: its file ends 10 bytes
+    // into the answer. The first 8 read as a read whose quantity (9D02) took hits, two
+    // bytes before the end; the awaited answer runs past the end, where the recording cut it.
+    const test::Bytes read = test::with_crc({0x03, 0x03, 0x00, 0x00, 0x00, 0x1D});
+    const test::Bytes cut = {0x03, 0x03, 0x3A, 0x08, 0x9D, 0x02, 0x0B, 0x04, 0x42, 0x03};
+    Batched bus;
+    bus.chunk({kRead1, kAnswer1}).chunk({read}).chunk({cut});
+    expect_cut_at_end(bus.run(), 4, cut, Reading::response);
+}
+
+TEST(DamagedFrameReadings, TheFirstBytesOfAReadTheRecordingCutAreNoAnswerWithoutData) {
+    // A run killed 5 bytes into a read: 06 03 00 10 00 also has the shape of an answer
+    // without data, whose CRC fails; the read's 8 bytes run past the end.
+    const test::Bytes cut(kRead6.begin(), kRead6.begin() + 5);
+    Batched bus;
+    bus.chunk({kRead6, kAnswer6}).chunk({kRead1, kAnswer1}).chunk({cut});
+    expect_cut_at_end(bus.run(), 5, cut, Reading::request);
 }
 
 TEST(DamagedFrameReadings, AnExceptionOfAnUnknownFunctionInsideADamagedAnswerIsByChance) {

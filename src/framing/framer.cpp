@@ -744,11 +744,12 @@ void Framer::classify_unframed(std::size_t from, std::size_t to) {
         // A frame whose CRC fails may begin after a few stray bytes: one that ends just
         // where the next frame or a proven silence begins. With exact timing the stray
         // bytes are a junk byte or two; batched, whatever came before the next proven
-        // silence.
+        // silence. None inside the start of a frame that the end of the input cut.
         const std::size_t search_end = options_.batching.hold == 0
                                            ? std::min(end, start + 1 + kMaxJunk)
                                            : std::min(to, start + kMaxAdu);
-        for (std::size_t at = start + 1; at < search_end && lengths_apply; ++at) {
+        for (std::size_t at = start + 1; at < search_end && lengths_apply && !fit.cut_by_end;
+             ++at) {
             if (proven_gap_before(at)) break;
             if (damaged_frame(at, to, true, kMaxChain).length != 0) {
                 end = std::min(end, at);
@@ -773,8 +774,10 @@ void Framer::classify_unframed(std::size_t from, std::size_t to) {
                 continue;
             }
             // What a stop cut off may fit a shorter frame's shape by chance (the first 5
-            // bytes of a read, `01 03 00 03 00`, as an answer with no data): it is cut.
-            if (shape != Reading::unknown && !(stopped_ && end == bytes_.size())) {
+            // bytes of a read, `01 03 00 03 00`, as an answer with no data): it is cut. So
+            // is what the end of the input cut, where a likelier reading runs past it.
+            if (shape != Reading::unknown && !(stopped_ && end == bytes_.size()) &&
+                !fit.cut_by_end) {
                 emit(start, n, RecordClass::invalid, shape,
                      bounded_by_gaps ? Delimiter::gap : Delimiter::length_crc, crc);
                 start = end;
@@ -912,9 +915,18 @@ Framer::DamagedFit Framer::damaged_frame(std::size_t start, std::size_t to,
             candidates[count++] = {role, FrameLength::fixed_at(*from_quantity), 0};
         }
     }
+    // The end of the input may be where the recording cut a frame (a run killed, a file
+    // still being written): a reading that runs past it, likelier than any that ends
+    // before it, says the bytes are that frame's first, not a damaged frame.
+    const bool head_ends_input = to == bytes_.size() && avail <= kMaxAdu;
+    std::optional<int> cut_likely;
     for (const Candidate& candidate : std::span(candidates).first(count)) {
         const Role role = candidate.role;
         const FrameLength& length = candidate.length;
+        const bool runs_past_end =
+            head_ends_input && (length.kind == FrameLength::Kind::need_more ||
+                                (length.kind == FrameLength::Kind::fixed && length.bytes > avail));
+        if (runs_past_end) cut_likely = std::max(cut_likely.value_or(candidate.likely), candidate.likely);
         if (!length.fixed_within(head.size()) || length.bytes < kMinAdu) continue;
         const std::size_t end = start + length.bytes;
         // Only a silence the batching cannot have made cuts it shorter.
@@ -947,6 +959,7 @@ Framer::DamagedFit Framer::damaged_frame(std::size_t start, std::size_t to,
             chosen = {length.bytes, reading_for(role, head[1]), rank, where, candidate.likely};
         }
     }
+    if (cut_likely && *cut_likely > chosen.likely) return {.cut_by_end = true};
     return chosen;
 }
 

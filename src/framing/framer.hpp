@@ -129,6 +129,9 @@ class Framer {
         // How its own fields bear it out, from 3 (evidence chance all but never gives) to
         // -1 (against it by more than one bit error): framer.cpp.
         int likely = 0;
+        // No reading fits because a likelier one runs past the end of the input: the
+        // bytes are the start of a frame the recording cut.
+        bool cut_by_end = false;
     };
     [[nodiscard]] DamagedFit damaged_frame(std::size_t start, std::size_t to,
                                            bool at_boundary_only, int chain) const;
