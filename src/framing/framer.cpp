@@ -639,12 +639,12 @@ void Framer::decide(bool at_end) {
         if (waiting) {
             // Long garbage must not grow the buffer without end: what lies a whole ADU
             // before the undecided position can no longer be part of a frame.
-            if (resync - pos_ > 16 * kMaxAdu) classify_unframed(pos_, resync - kMaxAdu);
+            if (resync - pos_ > 16 * kMaxAdu) classify_unframed(pos_, resync - kMaxAdu, at_end);
             // After what that emitted, which forgets the hint.
             scan_hint_ = resync;
             break;
         }
-        classify_unframed(pos_, resync);
+        classify_unframed(pos_, resync, at_end);
     }
 
     // What is decided goes once it is all decided, or in batches (a front erase each):
@@ -702,7 +702,7 @@ Reading Framer::reading_by_shape(std::span<const std::uint8_t> frame, Nanos at,
     return reading_for(Role::response, frame[1]);
 }
 
-void Framer::classify_unframed(std::size_t from, std::size_t to) {
+void Framer::classify_unframed(std::size_t from, std::size_t to, bool at_end) {
     const bool timed = has_time(byte_end(from));
     // The bytes a stop cut off end nowhere a frame does: no length is taken from them.
     const bool cut_at_stop = stopped_ && to == bytes_.size();
@@ -710,7 +710,7 @@ void Framer::classify_unframed(std::size_t from, std::size_t to) {
     std::size_t start = from;
     while (start < to) {
         const DamagedFit fit =
-            lengths_apply ? damaged_frame(start, to, false, kMaxChain) : DamagedFit{};
+            lengths_apply ? damaged_frame(start, to, false, kMaxChain, at_end) : DamagedFit{};
         // A junk byte or two before a damaged frame can read as a frame of its own: the
         // frame after them wins when its reading is much the likelier and it ends where the
         // next frame or a proven silence begins, or (by a wider margin) where another
@@ -719,7 +719,7 @@ void Framer::classify_unframed(std::size_t from, std::size_t to) {
         std::size_t junk = 0;
         for (std::size_t n = 1;
              fit.length != 0 && junk == 0 && n <= kMaxNoise && start + n < to; ++n) {
-            const DamagedFit there = damaged_frame(start + n, to, true, kMaxChain);
+            const DamagedFit there = damaged_frame(start + n, to, true, kMaxChain, at_end);
             const int margin = n > kMaxJunk ? 4 : there.where == 3 ? 2 : 3;
             const bool likelier =
                 there.rank >= fit.rank + margin && (n <= kMaxJunk || there.where == 3);
@@ -751,7 +751,7 @@ void Framer::classify_unframed(std::size_t from, std::size_t to) {
         for (std::size_t at = start + 1; at < search_end && lengths_apply && !fit.cut_by_end;
              ++at) {
             if (proven_gap_before(at)) break;
-            if (damaged_frame(at, to, true, kMaxChain).length != 0) {
+            if (damaged_frame(at, to, true, kMaxChain, at_end).length != 0) {
                 end = std::min(end, at);
                 break;
             }
@@ -817,7 +817,7 @@ bool Framer::proven_gap_before(std::size_t at) const {
 }
 
 Framer::DamagedFit Framer::damaged_frame(std::size_t start, std::size_t to,
-                                         bool at_boundary_only, int chain) const {
+                                         bool at_boundary_only, int chain, bool at_end) const {
     DamagedFit chosen;
     const std::size_t avail = to - start;
     if (avail < kMinAdu) return chosen;
@@ -918,7 +918,7 @@ Framer::DamagedFit Framer::damaged_frame(std::size_t start, std::size_t to,
     // The end of the input may be where the recording cut a frame (a run killed, a file
     // still being written): a reading that runs past it, likelier than any that ends
     // before it, says the bytes are that frame's first, not a damaged frame.
-    const bool head_ends_input = to == bytes_.size() && avail <= kMaxAdu;
+    const bool head_ends_input = at_end && to == bytes_.size() && avail <= kMaxAdu;
     std::optional<int> cut_likely;
     for (const Candidate& candidate : std::span(candidates).first(count)) {
         const Role role = candidate.role;
@@ -926,7 +926,9 @@ Framer::DamagedFit Framer::damaged_frame(std::size_t start, std::size_t to,
         const bool runs_past_end =
             head_ends_input && (length.kind == FrameLength::Kind::need_more ||
                                 (length.kind == FrameLength::Kind::fixed && length.bytes > avail));
-        if (runs_past_end) cut_likely = std::max(cut_likely.value_or(candidate.likely), candidate.likely);
+        if (runs_past_end) {
+            cut_likely = std::max(cut_likely.value_or(candidate.likely), candidate.likely);
+        }
         if (!length.fixed_within(head.size()) || length.bytes < kMinAdu) continue;
         const std::size_t end = start + length.bytes;
         // Only a silence the batching cannot have made cuts it shorter.
@@ -945,7 +947,7 @@ Framer::DamagedFit Framer::damaged_frame(std::size_t start, std::size_t to,
         // do, up to `chain`), or a junk byte or two before such a place (2); elsewhere (0).
         const bool at_boundary = end == to || proven_gap_before(end);
         const bool chained = !at_boundary && chain > 0 &&
-                             damaged_frame(end, to, true, chain - 1).length != 0;
+                             damaged_frame(end, to, true, chain - 1, at_end).length != 0;
         if (at_boundary_only && !at_boundary && !chained) continue;
         bool near_boundary = false;
         for (std::size_t junk = 1; junk <= kMaxJunk && !at_boundary && end + junk <= to; ++junk) {
@@ -1020,12 +1022,13 @@ std::optional<bool> Framer::found_by_chance(const Attempt& there, std::size_t at
             if (next.outcome == Outcome::need_more) return std::nullopt;
             return next.outcome == Outcome::frame && next.crc.status == CrcStatus::ok;
         };
-        const std::size_t damaged = damaged_frame(pos_, bytes_.size(), false, 0).length;
+        const std::size_t damaged = damaged_frame(pos_, bytes_.size(), false, 0, at_end).length;
         const std::size_t damaged_end = pos_ + damaged;
         if (damaged != 0 && damaged_end >= end) {
             const std::optional<bool> next = at_frame(damaged_end);
             if (next.value_or(false)) return true;
-            const std::size_t second = damaged_frame(damaged_end, bytes_.size(), false, 0).length;
+            const std::size_t second =
+                damaged_frame(damaged_end, bytes_.size(), false, 0, at_end).length;
             const std::optional<bool> after_second =
                 second != 0 ? at_frame(damaged_end + second) : std::optional(false);
             if (after_second.value_or(false)) return true;
@@ -1052,7 +1055,7 @@ std::optional<bool> Framer::found_by_chance(const Attempt& there, std::size_t at
         }
     }
     // Only a reading that chance rarely gives: the next frame's start is not known yet.
-    const DamagedFit fit = damaged_frame(pos_, bytes_.size(), false, kMaxChain);
+    const DamagedFit fit = damaged_frame(pos_, bytes_.size(), false, kMaxChain, at_end);
     const std::size_t damaged = fit.likely >= 2 ? fit.length : 0;
     if (damaged == 0 || pos_ + damaged <= at) return false;
     const std::size_t damaged_end = pos_ + damaged;

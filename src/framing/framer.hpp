@@ -111,14 +111,16 @@ class Framer {
     [[nodiscard]] bool gap_before(std::size_t at) const;
     // A silence (or the start of the input or of a channel) of at least t3.5.
     [[nodiscard]] bool ends_frame(Nanos gap) const { return gap != kNoTime && gap >= t35_; }
-    void classify_unframed(std::size_t from, std::size_t to);
+    // `at_end`: as in decide(), no byte follows the ones buffered.
+    void classify_unframed(std::size_t from, std::size_t to, bool at_end);
     // A silence at `at` that batching cannot have made up (FramerOptions::batching).
     [[nodiscard]] bool proven_gap_before(std::size_t at) const;
     // A frame whose CRC fails at `start`, before `to` (where the next frame starts): the
     // length its function code (and byte count) gives, with no proven silence inside, and
     // of its readings the likelier; with `at_boundary_only`, only one that ends at `to`, a
     // proven silence or where another such frame starts (with at most `chain` damaged
-    // frames in a row before `to` or the silence).
+    // frames in a row before `to` or the silence). With `at_end` and `to` the end of the
+    // bytes, nothing follows `to`: a reading may run past the end of the input.
     struct DamagedFit {
         std::size_t length = 0;  // 0: no reading fits
         Reading reading = Reading::unknown;
@@ -130,11 +132,11 @@ class Framer {
         // -1 (against it by more than one bit error): framer.cpp.
         int likely = 0;
         // No reading fits because a likelier one runs past the end of the input: the
-        // bytes are the start of a frame the recording cut.
+        // bytes are the start of a frame the recording cut (only with `at_end`).
         bool cut_by_end = false;
     };
     [[nodiscard]] DamagedFit damaged_frame(std::size_t start, std::size_t to,
-                                           bool at_boundary_only, int chain) const;
+                                           bool at_boundary_only, int chain, bool at_end) const;
     // Whether the frame `there` at `at`, found while looking past bytes from pos_ that
     // start none, is one by chance; std::nullopt when bytes still to come decide.
     [[nodiscard]] std::optional<bool> found_by_chance(const Attempt& there, std::size_t at,
