@@ -1,6 +1,8 @@
 #include "traffic.hpp"
 
 #include <algorithm>
+#include <optional>
+#include <utility>
 #include <vector>
 
 #include "framing/crc.hpp"
@@ -220,8 +222,14 @@ class Adapter {
           out_(out),
           stats_(stats),
           per_byte_(options.per_byte),
-          usb_timer_(options.usb_timer),
-          fifo_timeout_(options.uart_fifo ? 4 * char_time_8n1(options.baud) : 0) {}
+          usb_timer_(options.usb_timer) {
+        if (options.uart_fifo) {
+            fifo_.emplace(options.baud, [this](const Chunk& c) {
+                chunk_ = c;
+                flush(c.time);
+            });
+        }
+    }
 
     void byte(std::uint8_t b, Nanos end) {
         if (per_byte_) {
@@ -229,14 +237,8 @@ class Adapter {
             flush(end);
             return;
         }
-        if (fifo_timeout_ != 0) {
-            if (!chunk_.bytes.empty() && end > last_end_ + fifo_timeout_) {
-                flush(last_end_ + fifo_timeout_);
-            }
-            chunk_.bytes.push_back(b);
-            last_end_ = end;
-            deadline_ = end + fifo_timeout_;
-            if (chunk_.bytes.size() == kFifoTrigger) flush(end);
+        if (fifo_) {
+            fifo_->byte(b, end);
             return;
         }
         if (!chunk_.bytes.empty() && end > deadline_) flush(deadline_);
@@ -254,6 +256,7 @@ class Adapter {
         if (chunk_.bytes.size() == 64) flush(end);
     }
     void finish() {
+        if (fifo_) fifo_->finish();
         if (!chunk_.bytes.empty()) flush(deadline_);
     }
 
@@ -269,13 +272,11 @@ class Adapter {
     Rng& rng_;
     const std::function<void(const Chunk&)>& out_;
     TrafficStats& stats_;
-    static constexpr std::size_t kFifoTrigger = 14;
     bool per_byte_;
     Nanos usb_timer_;
-    Nanos fifo_timeout_;  // 0: not a UART's FIFO
+    std::optional<UartFifo> fifo_;
     Chunk chunk_;
     Nanos deadline_ = 0;
-    Nanos last_end_ = 0;
 };
 
 // One transaction of TrafficOptions::all_slaves_functions: the n-th of the rounds over
@@ -306,9 +307,10 @@ TrafficStats generate_traffic(const TrafficOptions& options,
 
     auto send = [&](const Bytes& frame, SentFrame::What what, bool damaged = false,
                     std::size_t flipped = 0) {
-        for (const std::uint8_t b : frame) {
+        for (std::size_t i = 0; i < frame.size(); ++i) {
+            if (i != 0) now += options.char_pause;
             now += char_time;
-            adapter.byte(b, now);
+            adapter.byte(frame[i], now);
         }
         if (on_sent) on_sent({what, frame, damaged, flipped});
     };
@@ -368,6 +370,26 @@ TrafficStats generate_traffic(const TrafficOptions& options,
     }
     adapter.finish();
     return stats;
+}
+
+UartFifo::UartFifo(std::uint32_t baud, std::function<void(const Chunk&)> out)
+    : timeout_(4 * char_time_8n1(baud)), out_(std::move(out)) {}
+
+void UartFifo::byte(std::uint8_t b, Nanos end) {
+    if (!chunk_.bytes.empty() && end > last_end_ + timeout_) flush(last_end_ + timeout_);
+    chunk_.bytes.push_back(b);
+    last_end_ = end;
+    if (chunk_.bytes.size() == kTrigger) flush(end);
+}
+
+void UartFifo::finish() {
+    if (!chunk_.bytes.empty()) flush(last_end_ + timeout_);
+}
+
+void UartFifo::flush(Nanos at) {
+    chunk_.time = at;
+    out_(chunk_);
+    chunk_.bytes.clear();
 }
 
 std::string capture_header(const TrafficOptions& options) {

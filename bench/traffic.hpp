@@ -29,6 +29,9 @@ struct TrafficOptions {
     // quiet for 4 characters (its receive timeout), each byte's time as the UART's.
     Nanos usb_timer = 0;
     bool uart_fifo = false;
+    // A pause the senders leave between the characters of a frame (within t1.5): some
+    // pause a bit each time, as the flow meter in captures/realdata does.
+    Nanos char_pause = 0;
     // Frames with a bit flipped on the line, per thousand requests and per thousand answers.
     std::uint32_t damaged_per_mille = 5;
 };
@@ -60,6 +63,24 @@ struct SentFrame {
 TrafficStats generate_traffic(const TrafficOptions& options,
                               const std::function<void(const Chunk&)>& on_chunk,
                               const std::function<void(const SentFrame&)>& on_sent = {});
+
+// A 16550 UART's receive FIFO: the bytes it is given, each at the time it ended on the
+// line, handed over at its trigger level (14 bytes) when the last of them ends, or once
+// the line has been quiet for 4 characters (its receive timeout) after the last.
+class UartFifo {
+  public:
+    UartFifo(std::uint32_t baud, std::function<void(const Chunk&)> out);
+    void byte(std::uint8_t b, Nanos end);
+    void finish();  // what it still holds, handed over at the timeout
+
+  private:
+    void flush(Nanos at);
+    static constexpr std::size_t kTrigger = 14;
+    Nanos timeout_;
+    std::function<void(const Chunk&)> out_;
+    Chunk chunk_;
+    Nanos last_end_ = 0;
+};
 
 // The header of the traffic's native capture.
 std::string capture_header(const TrafficOptions& options);
