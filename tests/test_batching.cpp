@@ -14,6 +14,7 @@
 
 #include "framing/batching.hpp"
 #include "framing/functions.hpp"
+#include "input/capture_writer.hpp"
 #include "input/sources.hpp"
 #include "pipeline.hpp"
 #include "support.hpp"
@@ -107,6 +108,43 @@ TEST(BatchingLearner, FindsAUartFifo) {
     EXPECT_EQ(b.text(),
               "chunks of 14 bytes, the rest after a pause (a UART FIFO): silences under 5 ms "
               "cannot be seen");
+}
+
+TEST(BatchingLearner, FindsAUartFifoWhoseSendersPauseBetweenCharacters) {
+    // Senders pausing a bit after each character: the FIFO's full chunks come 14
+    // characters and 14 pauses apart, not 14 characters.
+    const Nanos char_time = LineSettings{.baud = 9600}.char_time();
+    bench::TrafficOptions o = traffic_options(Delivery::uart_fifo, 9600, 2'000);
+    o.char_pause = char_time / 10;
+    BatchingLearner learner(char_time);
+    bench::generate_traffic(o, [&](const Chunk& c) { learner.chunk(c); });
+    const Batching b = learner.verdict();
+    EXPECT_EQ(b.kind, Batching::Kind::fifo);
+    EXPECT_EQ(b.fifo_trigger, 14U);
+    // A full chunk's first byte began 14 pauses before it is placed.
+    const Nanos hold = 4 * char_time + char_time / 2 + 14 * o.char_pause;
+    EXPECT_LE(std::abs(b.hold - hold), 14);
+    EXPECT_EQ(b.text(),
+              "chunks of 14 bytes, the rest after a pause (a UART FIFO): silences under 6 ms "
+              "cannot be seen");
+}
+
+TEST(BatchingLearner, LongAnswersAChunkEachAtASteadyPollAreNoFifo) {
+    // Each 60-byte answer handed over whole, t3.5 after its request: the answers come
+    // 60 characters and a turnaround apart, close to back to back at a slow sender's
+    // pace, but nothing follows them until the next poll, as a FIFO's rest would.
+    const LineSettings line{.baud = 9600};
+    test::Line bus(line);
+    const test::Bytes request = test::with_crc({0x01, 0x03, 0x00, 0x00, 0x00, 0x1B});
+    test::Bytes answer{0x01, 0x03, 0x36};
+    answer.resize(3 + 0x36, 0x5A);
+    answer = test::with_crc(answer);
+    for (int i = 0; i < 300; ++i) {
+        bus.silence_ms(30).send_chunk(request).silence_ms(3.7).send_chunk(answer);
+    }
+    BatchingLearner learner(line.char_time());
+    for (const Chunk& c : bus.chunks()) learner.chunk(c);
+    EXPECT_EQ(learner.verdict().kind, Batching::Kind::unknown);
 }
 
 TEST(BatchingLearner, AFrameAChunkAtASteadyPollIsNoBatching) {
@@ -480,6 +518,77 @@ TEST(DamagedFrameReadings, AReadingEndsWhereTwoDamagedFramesThatEndAtTheNextFram
     bus.chunk({{0x1A}, read, answer, read1, answer1});
     ASSERT_EQ(check_crc(answer).status, CrcStatus::bad);
     expect_noise_then_damaged(bus.run(), 4, {0x1A}, {read, answer, read1}, answer1);
+}
+
+// Whether `frame` with a bit flipped at `byte` still gives its length (its function code
+// and byte count intact), read as `role`.
+bool keeps_length(test::Bytes frame, std::size_t byte, Role role) {
+    const std::size_t size = frame.size();
+    frame[byte] ^= 0x08;
+    const FrameLength length = standard_rules().frame_lengths(frame).of(role);
+    return length.kind == FrameLength::Kind::fixed && length.bytes == size;
+}
+
+// The flow meter of captures/realdata (a real line whose slave pauses a bit between
+// characters), handed over by a 16550 UART's FIFO, with a bit flipped in every third
+// frame where its function code and byte count survive: each frame one record at its
+// true boundaries, the damaged ones with their CRC failing.
+TEST(DamagedFramesOnARealLine, ThroughAUartFifoAreOneRecordEach) {
+    const std::string path =
+        RTUSCOPE_SOURCE_DIR "/captures/realdata/flowmeter_target_15liter_per_min.rtucap";
+    auto file = open_source(path, InputFormat::capture);
+    ASSERT_TRUE(file);
+    const SourceInfo info = (*file)->info();
+    std::vector<Nanos> byte_ends;  // each byte as the logic analyser timed it
+    for (Chunk c;;) {
+        const Result<bool> more = (*file)->next(c);
+        ASSERT_TRUE(more);
+        if (!*more) break;
+        ASSERT_EQ(c.bytes.size(), 1U);
+        byte_ends.push_back(c.time);
+    }
+    auto again = open_source(path, InputFormat::capture);
+    ASSERT_TRUE(again);
+    test::CollectingSink as_recorded;
+    ASSERT_TRUE(run_pipeline(**again, PipelineOptions{}, as_recorded));
+
+    std::vector<test::Bytes> frames;
+    std::vector<bool> damaged;
+    std::string capture = capture_header(info);
+    ASSERT_TRUE(info.line);
+    bench::UartFifo fifo(info.line->baud, [&](const Chunk& c) { capture += capture_line(c); });
+    std::size_t at = 0;  // the stream index of the frame's first byte
+    for (const Record& r : as_recorded.records) {
+        ASSERT_EQ(r.frame.cls, RecordClass::frame);
+        test::Bytes bytes = r.frame.bytes;
+        const std::size_t i = frames.size();
+        const Role role = r.kind == Kind::request ? Role::request : Role::response;
+        std::size_t byte = (i * 5) % bytes.size();
+        while (!keeps_length(bytes, byte, role)) byte = (byte + 1) % bytes.size();
+        damaged.push_back(i % 3 == 2);
+        if (damaged.back()) bytes[byte] ^= 0x08;
+        for (const std::uint8_t b : bytes) fifo.byte(b, byte_ends.at(at++));
+        frames.push_back(bytes);
+    }
+    fifo.finish();
+
+    auto source = source_from_memory(capture, "flowmeter through a FIFO", InputFormat::capture);
+    ASSERT_TRUE(source);
+    test::CollectingSink sink;
+    ASSERT_TRUE(run_pipeline(**source, PipelineOptions{}, sink));
+    EXPECT_EQ(sink.session.batching,
+              "chunks of 14 bytes, the rest after a pause (a UART FIFO): silences under 6 ms "
+              "cannot be seen");
+    ASSERT_EQ(sink.records.size(), frames.size());
+    for (std::size_t i = 0; i < frames.size(); ++i) {
+        const Record& r = sink.records[i];
+        EXPECT_EQ(r.frame.bytes, frames[i]) << "record " << r.number;
+        if (damaged[i]) {
+            expect_damaged(r, frames[i]);
+        } else {
+            EXPECT_EQ(r.frame.cls, RecordClass::frame) << "record " << r.number;
+        }
+    }
 }
 
 class DamagedFrames : public ::testing::TestWithParam<Case> {};

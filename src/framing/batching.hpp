@@ -49,13 +49,16 @@ class BatchingLearner {
 
     static constexpr std::size_t kChunksToSettle = 256;
 
-  private:
     struct Sample {
         Nanos interval = 0;  // since the chunk before
         std::size_t bytes = 0;
+        bool follows_previous = false;  // the sample before it is its chunk's predecessor
     };
+
+  private:
     Nanos char_time_;
     Nanos last_time_ = kNoTime;
+    bool last_sampled_ = false;  // the last chunk's interval is a sample
     std::size_t chunks_ = 0;
     std::size_t single_bytes_ = 0;
     std::vector<Sample> samples_;
