@@ -193,10 +193,11 @@ TEST(BatchingLearner, IsSaidInTheHeaderOfADecode) {
 struct Case {
     Delivery delivery;
     std::uint32_t baud;
+    bool pausing = false;  // senders pause a bit between characters
 };
 
 std::string name_of(const Case& c) {
-    return fmt::format("{}_{}", to_string(c.delivery), c.baud);
+    return fmt::format("{}_{}{}", to_string(c.delivery), c.baud, c.pausing ? "_pausing" : "");
 }
 
 void PrintTo(const Case& c, std::ostream* out) {
@@ -596,8 +597,10 @@ class DamagedFrames : public ::testing::TestWithParam<Case> {};
 TEST_P(DamagedFrames, AreOneRecordEachAtTheirTrueBoundaries) {
     const Case c = GetParam();
     std::vector<SentFrame> sent;
-    const bench::TrafficInMemory traffic = bench::traffic_in_memory(
-        traffic_options(c.delivery, c.baud, 20'000), [&](const SentFrame& s) { sent.push_back(s); });
+    bench::TrafficOptions options = traffic_options(c.delivery, c.baud, 20'000);
+    if (c.pausing) options.char_pause = kNanosPerSecond / c.baud;
+    const bench::TrafficInMemory traffic =
+        bench::traffic_in_memory(options, [&](const SentFrame& s) { sent.push_back(s); });
     auto source = source_from_memory(traffic.capture, "traffic", InputFormat::capture);
     ASSERT_TRUE(source);
     test::CollectingSink sink;
@@ -677,9 +680,11 @@ INSTANTIATE_TEST_SUITE_P(, DamagedFrames,
                                            Case{Delivery::per_byte, 115200},
                                            Case{Delivery::uart_fifo, 9600},
                                            Case{Delivery::uart_fifo, 115200},
+                                           Case{Delivery::uart_fifo, 9600, true},
                                            Case{Delivery::usb_1ms, 9600},
                                            Case{Delivery::usb_1ms, 115200},
                                            Case{Delivery::usb_16ms, 9600},
+                                           Case{Delivery::usb_16ms, 9600, true},
                                            Case{Delivery::usb_16ms, 115200}),
                          [](const ::testing::TestParamInfo<Case>& param) {
                              return name_of(param.param);
