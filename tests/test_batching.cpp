@@ -130,8 +130,8 @@ TEST(BatchingLearner, FindsAUartFifoWhoseSendersPauseBetweenCharacters) {
 }
 
 TEST(BatchingLearner, LongAnswersAChunkEachAtASteadyPollAreNoFifo) {
-    // Each 60-byte answer handed over whole, t3.5 after its request: the answers come
-    // 60 characters and a turnaround apart, close to back to back at a slow sender's
+    // Each 59-byte answer handed over whole, t3.5 after its request: the answers come
+    // 59 characters and a turnaround apart, close to back to back at a slow sender's
     // pace, but nothing follows them until the next poll, as a FIFO's rest would.
     const LineSettings line{.baud = 9600};
     test::Line bus(line);
