@@ -204,13 +204,17 @@ void PrintTo(const Case& c, std::ostream* out) {
     *out << name_of(c);
 }
 
-// Whether a bit error left the frame's function code and the length it gives (its byte
-// count) as they were: then the frame's length is known although its CRC fails.
+// Whether a bit error at `hit` left the frame's function code and the length it gives
+// (its byte count) as they were: then the frame's length, read as `role`, is known
+// although its CRC fails.
+bool length_survived(const test::Bytes& bytes, std::size_t hit, Role role) {
+    if (hit == 1) return false;
+    const FrameLength length = standard_rules().frame_lengths(bytes).of(role);
+    return length.kind == FrameLength::Kind::fixed && length.bytes == bytes.size();
+}
 bool length_survived(const SentFrame& s) {
-    if (s.flipped == 1) return false;
-    const Role role = s.what == SentFrame::What::request ? Role::request : Role::response;
-    const FrameLength length = standard_rules().frame_lengths(s.bytes).of(role);
-    return length.kind == FrameLength::Kind::fixed && length.bytes == s.bytes.size();
+    return length_survived(s.bytes, s.flipped,
+                           s.what == SentFrame::What::request ? Role::request : Role::response);
 }
 
 // Where no silence shows between them, the bytes of a damaged frame and its neighbours are
@@ -521,15 +525,6 @@ TEST(DamagedFrameReadings, AReadingEndsWhereTwoDamagedFramesThatEndAtTheNextFram
     expect_noise_then_damaged(bus.run(), 4, {0x1A}, {read, answer, read1}, answer1);
 }
 
-// Whether `frame` with a bit flipped at `byte` still gives its length (its function code
-// and byte count intact), read as `role`.
-bool keeps_length(test::Bytes frame, std::size_t byte, Role role) {
-    const std::size_t size = frame.size();
-    frame[byte] ^= 0x08;
-    const FrameLength length = standard_rules().frame_lengths(frame).of(role);
-    return length.kind == FrameLength::Kind::fixed && length.bytes == size;
-}
-
 // The flow meter of captures/realdata (a real line whose slave pauses a bit between
 // characters), handed over by a 16550 UART's FIFO, with a bit flipped in every third
 // frame where its function code and byte count survive: each frame one record at its
@@ -564,10 +559,14 @@ TEST(DamagedFramesOnARealLine, ThroughAUartFifoAreOneRecordEach) {
         test::Bytes bytes = r.frame.bytes;
         const std::size_t i = frames.size();
         const Role role = r.kind == Kind::request ? Role::request : Role::response;
-        std::size_t byte = (i * 5) % bytes.size();
-        while (!keeps_length(bytes, byte, role)) byte = (byte + 1) % bytes.size();
+        test::Bytes hit;
+        for (std::size_t byte = (i * 5) % bytes.size();; byte = (byte + 1) % bytes.size()) {
+            hit = bytes;
+            hit[byte] ^= 0x08;
+            if (length_survived(hit, byte, role)) break;
+        }
         damaged.push_back(i % 3 == 2);
-        if (damaged.back()) bytes[byte] ^= 0x08;
+        if (damaged.back()) bytes = hit;
         for (const std::uint8_t b : bytes) fifo.byte(b, byte_ends.at(at++));
         frames.push_back(bytes);
     }

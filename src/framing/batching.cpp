@@ -39,7 +39,7 @@ SizeCounts::const_iterator commonest(const SizeCounts& counts) {
 // intervals, per byte.
 Nanos sender_pace(const std::vector<BatchingLearner::Sample>& samples, Nanos ct) {
     const auto may_be_back_to_back = [&](const BatchingLearner::Sample& s) {
-        const auto line_pace = static_cast<Nanos>(s.bytes) * ct;
+        const Nanos line_pace = s.bytes_at(ct);
         return s.bytes >= kFewestFifoBytes && s.interval + ct / 2 >= line_pace &&
                s.interval <= line_pace + line_pace / 4 + ct / 2;
     };
@@ -100,7 +100,6 @@ Batching BatchingLearner::verdict() const {
     Batching batching;
     if (chunks_ < kFewestChunks || samples_.size() < kFewestChunks) return batching;
     const Nanos ct = char_time_;
-    const auto bytes_time = [&](const Sample& s) { return static_cast<Nanos>(s.bytes) * ct; };
     if (single_bytes_ * 5 >= chunks_ * 4) {
         batching.kind = Batching::Kind::per_byte;
         return batching;
@@ -114,7 +113,7 @@ Batching BatchingLearner::verdict() const {
     std::size_t largest = 0;
     for (const Sample& s : samples_) largest = std::max(largest, s.bytes);
     const auto held = [&](const Sample& s) {
-        return s.bytes < largest && bytes_time(s) + ct <= s.interval;
+        return s.bytes < largest && s.bytes_at(ct) + ct <= s.interval;
     };
     std::vector<Nanos> intervals;
     for (const Sample& s : samples_) {
@@ -154,9 +153,8 @@ Batching BatchingLearner::verdict() const {
     // a steady poll, are not). Back to back at the sender's pace: some senders pause
     // between characters (the flow meter in captures/realdata, a bit each time).
     const Nanos pace = sender_pace(samples_, ct);
-    const auto at_pace = [&](const Sample& s) { return static_cast<Nanos>(s.bytes) * pace; };
     const auto came_back_to_back = [&](const Sample& s) {
-        return s.bytes >= kFewestFifoBytes && std::abs(s.interval - at_pace(s)) <= ct / 2;
+        return s.bytes >= kFewestFifoBytes && std::abs(s.interval - s.bytes_at(pace)) <= ct / 2;
     };
     SizeCounts full;
     std::size_t back_to_back = 0;
@@ -176,7 +174,7 @@ Batching BatchingLearner::verdict() const {
         const Sample& s = samples_[i];
         const Sample& next = samples_[i + 1];
         if (s.bytes == trigger->first && came_back_to_back(s) && next.follows_previous &&
-            next.interval <= at_pace(next) + kFifoTimeoutChars * ct + ct) {
+            next.interval <= next.bytes_at(pace) + kFifoTimeoutChars * ct + ct) {
             ++continued;
         }
     }

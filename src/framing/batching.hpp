@@ -53,6 +53,10 @@ class BatchingLearner {
         Nanos interval = 0;  // since the chunk before
         std::size_t bytes = 0;
         bool follows_previous = false;  // the sample before it is its chunk's predecessor
+        // How long its bytes take, back to back, at `pace` a character.
+        [[nodiscard]] Nanos bytes_at(Nanos pace) const {
+            return static_cast<Nanos>(bytes) * pace;
+        }
     };
 
   private:
