@@ -92,7 +92,7 @@ Status run_pipeline(ChunkSource& source, const PipelineOptions& options, RecordS
     // a live input, is said at the end.
     const auto stop_requested = [&] { return options.stop != nullptr && options.stop->load(); };
     const bool learns_batching = session.source.timed && !session.source.chunk_time_is_start;
-    BatchingLearner learner(session.line.char_time());
+    BatchingLearner learner(session.line);
     std::deque<Chunk> read_ahead;
     std::optional<Status> read_ahead_end;  // what the source said after the chunks read ahead
     if (learns_batching && !options.live && session.source.format != "live") {

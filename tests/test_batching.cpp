@@ -7,8 +7,8 @@
 #include <cstdlib>
 #include <iterator>
 #include <map>
-#include <set>
 #include <ostream>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -41,8 +41,7 @@ std::string to_string(Delivery d) {
     return "?";
 }
 
-bench::TrafficOptions traffic_options(Delivery delivery, std::uint32_t baud,
-                                      std::uint64_t frames) {
+bench::TrafficOptions traffic_options(Delivery delivery, std::uint32_t baud, std::uint64_t frames) {
     bench::TrafficOptions o;
     o.frames = frames;
     o.baud = baud;
@@ -58,7 +57,7 @@ bench::TrafficOptions traffic_options(Delivery delivery, std::uint32_t baud,
 }
 
 Batching learned(Delivery delivery, std::uint32_t baud) {
-    BatchingLearner learner(LineSettings{.baud = baud}.char_time());
+    BatchingLearner learner(LineSettings{.baud = baud});
     bench::generate_traffic(traffic_options(delivery, baud, 2'000),
                             [&](const Chunk& c) { learner.chunk(c); });
     EXPECT_TRUE(learner.settled());
@@ -111,22 +110,56 @@ TEST(BatchingLearner, FindsAUartFifo) {
 }
 
 TEST(BatchingLearner, FindsAUartFifoWhoseSendersPauseBetweenCharacters) {
-    // Senders pausing a bit after each character: the FIFO's full chunks come 14
-    // characters and 14 pauses apart, not 14 characters.
-    const Nanos char_time = LineSettings{.baud = 9600}.char_time();
+    // Senders pausing after each character, from a bit to almost t1.5 (1.5 characters at
+    // 9600, as the spec allows within a frame): the FIFO's full chunks come 14 characters
+    // and 14 pauses apart, not 14 characters.
+    const LineSettings line{.baud = 9600};
+    const Nanos char_time = line.char_time();
+    for (const Nanos pause : {char_time / 10, char_time / 2, char_time * 14 / 10}) {
+        bench::TrafficOptions o = traffic_options(Delivery::uart_fifo, 9600, 2'000);
+        o.char_pause = pause;
+        BatchingLearner learner(line);
+        bench::generate_traffic(o, [&](const Chunk& c) { learner.chunk(c); });
+        const Batching b = learner.verdict();
+        EXPECT_EQ(b.kind, Batching::Kind::fifo) << "pause " << pause;
+        EXPECT_EQ(b.fifo_trigger, 14U) << "pause " << pause;
+        // A full chunk's first byte began 14 pauses before it is placed.
+        const Nanos hold = 4 * char_time + char_time / 2 + 14 * pause;
+        EXPECT_LE(std::abs(b.hold - hold), 14) << "pause " << pause;
+    }
     bench::TrafficOptions o = traffic_options(Delivery::uart_fifo, 9600, 2'000);
     o.char_pause = char_time / 10;
-    BatchingLearner learner(char_time);
+    BatchingLearner learner(line);
     bench::generate_traffic(o, [&](const Chunk& c) { learner.chunk(c); });
-    const Batching b = learner.verdict();
-    EXPECT_EQ(b.kind, Batching::Kind::fifo);
-    EXPECT_EQ(b.fifo_trigger, 14U);
-    // A full chunk's first byte began 14 pauses before it is placed.
-    const Nanos hold = 4 * char_time + char_time / 2 + 14 * o.char_pause;
-    EXPECT_LE(std::abs(b.hold - hold), 14);
-    EXPECT_EQ(b.text(),
+    EXPECT_EQ(learner.verdict().text(),
               "chunks of 14 bytes, the rest after a pause (a UART FIFO): silences under 6 ms "
               "cannot be seen");
+}
+
+TEST(BatchingLearner, FindsALatencyTimerWhoseSendersPauseBetweenCharacters) {
+    // A sender pausing more than a character after each one fills a timer's chunks with
+    // as many characters each time, so chunks of one size pile up at the period: its
+    // frames' last chunks, of every size, still come just then.
+    struct Timer {
+        Delivery delivery;
+        std::uint32_t baud;
+        Nanos period;
+    };
+    for (const Timer t : {Timer{Delivery::usb_16ms, 9600, 16'000'000},
+                          Timer{Delivery::usb_1ms, 115200, 1'000'000}}) {
+        const LineSettings line{.baud = t.baud};
+        bench::TrafficOptions o = traffic_options(t.delivery, t.baud, 2'000);
+        o.char_pause = line.char_time() * 12 / 10;
+        BatchingLearner learner(line);
+        bench::generate_traffic(o, [&](const Chunk& c) { learner.chunk(c); });
+        const Batching b = learner.verdict();
+        EXPECT_EQ(b.kind, Batching::Kind::timer) << to_string(t.delivery);
+        // A chunk comes when the first byte after the period ends: up to a character
+        // and a pause later.
+        EXPECT_GE(b.period, t.period) << to_string(t.delivery);
+        EXPECT_LE(b.period, t.period + line.char_time() + o.char_pause) << to_string(t.delivery);
+        EXPECT_EQ(b.hold, b.period) << to_string(t.delivery);
+    }
 }
 
 TEST(BatchingLearner, LongAnswersAChunkEachAtASteadyPollAreNoFifo) {
@@ -142,7 +175,7 @@ TEST(BatchingLearner, LongAnswersAChunkEachAtASteadyPollAreNoFifo) {
     for (int i = 0; i < 300; ++i) {
         bus.silence_ms(30).send_chunk(request).silence_ms(3.7).send_chunk(answer);
     }
-    BatchingLearner learner(line.char_time());
+    BatchingLearner learner(line);
     for (const Chunk& c : bus.chunks()) learner.chunk(c);
     EXPECT_EQ(learner.verdict().kind, Batching::Kind::unknown);
 }
@@ -158,14 +191,32 @@ TEST(BatchingLearner, AFrameAChunkAtASteadyPollIsNoBatching) {
     for (int i = 0; i < 300; ++i) {
         bus.silence_ms(80).send_chunk(request).silence_ms(8).send_chunk(answer);
     }
-    BatchingLearner learner(line.char_time());
+    BatchingLearner learner(line);
     for (const Chunk& c : bus.chunks()) learner.chunk(c);
     EXPECT_EQ(learner.verdict().kind, Batching::Kind::unknown);
     EXPECT_EQ(learner.verdict().hold, 0);
 }
 
+TEST(BatchingLearner, FramesAChunkEachAtASteadyPollAreNoTimerWhateverTheirSizes) {
+    // Answers of 7, 9, 11 and 13 bytes, each handed over as it ended, 8 ms after its
+    // request: several sizes pile up close together, but each byte more comes a character
+    // later, as a timer's chunks do not.
+    const LineSettings line{.baud = 9600};
+    test::Line bus(line);
+    const test::Bytes request = test::with_crc({0x01, 0x03, 0x00, 0x00, 0x00, 0x01});
+    for (int i = 0; i < 300; ++i) {
+        const auto registers = static_cast<std::uint8_t>(1 + i % 4);
+        test::Bytes answer{0x01, 0x03, static_cast<std::uint8_t>(2 * registers)};
+        answer.resize(3 + 2 * registers, 0x11);
+        bus.silence_ms(80).send_chunk(request).silence_ms(8).send_chunk(test::with_crc(answer));
+    }
+    BatchingLearner learner(line);
+    for (const Chunk& c : bus.chunks()) learner.chunk(c);
+    EXPECT_EQ(learner.verdict().kind, Batching::Kind::unknown);
+}
+
 TEST(BatchingLearner, FewChunksSayNothing) {
-    BatchingLearner learner(LineSettings{}.char_time());
+    BatchingLearner learner(LineSettings{});
     bench::TrafficOptions o = traffic_options(Delivery::usb_16ms, 9600, 4);
     bench::generate_traffic(o, [&](const Chunk& c) { learner.chunk(c); });
     EXPECT_FALSE(learner.settled());
@@ -193,11 +244,14 @@ TEST(BatchingLearner, IsSaidInTheHeaderOfADecode) {
 struct Case {
     Delivery delivery;
     std::uint32_t baud;
-    bool pausing = false;  // senders pause a bit between characters
+    unsigned pause_bits = 0;  // senders pause this many bits after each character
 };
 
 std::string name_of(const Case& c) {
-    return fmt::format("{}_{}{}", to_string(c.delivery), c.baud, c.pausing ? "_pausing" : "");
+    return fmt::format("{}_{}{}", to_string(c.delivery), c.baud,
+                       c.pause_bits == 0   ? ""
+                       : c.pause_bits == 1 ? "_pausing_1_bit"
+                                           : fmt::format("_pausing_{}_bits", c.pause_bits));
 }
 
 void PrintTo(const Case& c, std::ostream* out) {
@@ -221,11 +275,13 @@ bool length_survived(const SentFrame& s) {
 // read by what their fields make likely. A framer behind a 16 ms latency timer, whose
 // chunks hold several frames each.
 struct Batched {
-    Batched() : h([] {
-        FramerOptions o;
-        o.batching = {.kind = Batching::Kind::timer, .period = 16'000'000, .hold = 16'000'000};
-        return o;
-    }()) {}
+    Batched()
+        : h([] {
+              FramerOptions o;
+              o.batching = {
+                  .kind = Batching::Kind::timer, .period = 16'000'000, .hold = 16'000'000};
+              return o;
+          }()) {}
     // The frames of `frames` handed over in one chunk, 16 ms after the last.
     Batched& chunk(std::initializer_list<test::Bytes> frames) {
         line.deliver_at(at += 16'000'000, test::concat(frames));
@@ -287,8 +343,8 @@ void expect_cut_at_end(const std::vector<Record>& r, std::size_t count, const te
 // A write of 50 coils (7 bytes of them) to `slave` at `address`, and its answer.
 test::Bytes write_50_coils(std::uint8_t slave, std::uint16_t address) {
     return test::with_crc({slave, 0x0F, static_cast<std::uint8_t>(address >> 8U),
-                           static_cast<std::uint8_t>(address & 0xFFU), 0x00, 0x32, 0x07, 0x01,
-                           0x02, 0x03, 0x04, 0x05, 0x06, 0x01});
+                           static_cast<std::uint8_t>(address & 0xFFU), 0x00, 0x32, 0x07, 0x01, 0x02,
+                           0x03, 0x04, 0x05, 0x06, 0x01});
 }
 test::Bytes answer_to_write(const test::Bytes& write) {
     return test::with_crc(test::Bytes(write.begin(), write.begin() + 6));
@@ -430,8 +486,8 @@ TEST(DamagedFrameReadings, AnAnswerThatRepeatsTheAwaitedRequestIsLikeliest) {
     // Slave 3's answer to a write of 2 registers, its CRC hit, then bytes of a function no
     // table knows: the answer's 8 bytes and 6 more also read as a write of 2 whose byte
     // count (05) took the hit, ending two bytes before the next frame.
-    const test::Bytes write = test::with_crc({0x03, 0x10, 0x00, 0x04, 0x00, 0x02, 0x04, 0x30,
-                                              0x54, 0x3F, 0xFB});
+    const test::Bytes write =
+        test::with_crc({0x03, 0x10, 0x00, 0x04, 0x00, 0x02, 0x04, 0x30, 0x54, 0x3F, 0xFB});
     test::Bytes answer = answer_to_write(write);
     answer[6] = 0x05;
     const test::Bytes unknown = {0x0C, 0x31, 0x02, 0xE2, 0x00, 0x3D, 0x5D, 0x48};
@@ -472,17 +528,17 @@ TEST(DamagedFrameReadings, AFrameByCrcInsideADamagedAnswerBeforeADamagedFrameIsB
     // CRC); a read whose address took a hit (08 -> 18) follows it, and ends where its
     // answer begins.
     const test::Bytes read = test::with_crc({0x18, 0x04, 0x02, 0x4C, 0x00, 0x1E});
-    const test::Bytes answer = {
-        0x18, 0x04, 0x3C, 0xBE, 0x73, 0x8C, 0x2F, 0x3F, 0xBD, 0xAB, 0x75, 0x85, 0xE9, 0xDB, 0x03,
-        0x1F, 0xBB, 0x7F, 0x9E, 0xFC, 0xEC, 0x81, 0x27, 0x38, 0xA8, 0x85, 0x83, 0x77, 0x34, 0x3E,
-        0x9D, 0xCE, 0xBC, 0x8D, 0xD9, 0x74, 0x09, 0xDA, 0x3B, 0x4D, 0x78, 0x8F, 0x13, 0xCC, 0xF8,
-        0xB2, 0xAC, 0xD4, 0xB0, 0x4C, 0xC9, 0x05, 0x96, 0xF9, 0xCF, 0xE3, 0x2B, 0xA1, 0xC0, 0x3D,
-        0x70, 0x9D, 0x24, 0x36, 0xA2};
+    const test::Bytes answer = {0x18, 0x04, 0x3C, 0xBE, 0x73, 0x8C, 0x2F, 0x3F, 0xBD, 0xAB, 0x75,
+                                0x85, 0xE9, 0xDB, 0x03, 0x1F, 0xBB, 0x7F, 0x9E, 0xFC, 0xEC, 0x81,
+                                0x27, 0x38, 0xA8, 0x85, 0x83, 0x77, 0x34, 0x3E, 0x9D, 0xCE, 0xBC,
+                                0x8D, 0xD9, 0x74, 0x09, 0xDA, 0x3B, 0x4D, 0x78, 0x8F, 0x13, 0xCC,
+                                0xF8, 0xB2, 0xAC, 0xD4, 0xB0, 0x4C, 0xC9, 0x05, 0x96, 0xF9, 0xCF,
+                                0xE3, 0x2B, 0xA1, 0xC0, 0x3D, 0x70, 0x9D, 0x24, 0x36, 0xA2};
     test::Bytes next = test::with_crc({0x08, 0x03, 0x02, 0xDE, 0x00, 0x0C});
     next[0] = 0x18;
     const test::Bytes next_answer = test::with_crc(
-        {0x08, 0x03, 0x18, 0xBE, 0x6B, 0x53, 0x37, 0x31, 0x62, 0x7D, 0xBD, 0x49, 0x36, 0x89, 0xFE,
-         0x7B, 0x96, 0xF1, 0x92, 0x9B, 0x98, 0xAE, 0x76, 0x8D, 0x20, 0x73, 0x48});
+        {0x08, 0x03, 0x18, 0xBE, 0x6B, 0x53, 0x37, 0x31, 0x62, 0x7D, 0xBD, 0x49, 0x36, 0x89,
+         0xFE, 0x7B, 0x96, 0xF1, 0x92, 0x9B, 0x98, 0xAE, 0x76, 0x8D, 0x20, 0x73, 0x48});
     Batched bus;
     bus.chunk({kRead6, kAnswer6});
     // In the chunks a 16 ms latency timer handed them over in: the frame by CRC is whole
@@ -597,7 +653,7 @@ TEST_P(DamagedFrames, AreOneRecordEachAtTheirTrueBoundaries) {
     const Case c = GetParam();
     std::vector<SentFrame> sent;
     bench::TrafficOptions options = traffic_options(c.delivery, c.baud, 20'000);
-    if (c.pausing) options.char_pause = kNanosPerSecond / c.baud;
+    options.char_pause = c.pause_bits * kNanosPerSecond / c.baud;
     const bench::TrafficInMemory traffic =
         bench::traffic_in_memory(options, [&](const SentFrame& s) { sent.push_back(s); });
     auto source = source_from_memory(traffic.capture, "traffic", InputFormat::capture);
@@ -648,20 +704,20 @@ TEST_P(DamagedFrames, AreOneRecordEachAtTheirTrueBoundaries) {
             }
         }
         const auto found = record_at.find(first);
-        const bool whole = found != record_at.end() &&
-                           found->second->frame.bytes.size() == s.bytes.size();
-        const bool right = whole && (s.damaged ? found->second->frame.crc.status == CrcStatus::bad &&
-                                                     found->second->notes.has(note_id::crc_mismatch)
-                                               : found->second->frame.cls == RecordClass::frame);
+        const bool whole =
+            found != record_at.end() && found->second->frame.bytes.size() == s.bytes.size();
+        const bool right =
+            whole && (s.damaged ? found->second->frame.crc.status == CrcStatus::bad &&
+                                      found->second->notes.has(note_id::crc_mismatch)
+                                : found->second->frame.cls == RecordClass::frame);
         if (right) continue;
         ++missed;
         if (missed <= 10) {
-            misses += fmt::format("\n  {}{:02X}: {}", s.damaged ? "damaged " : "",
-                                  fmt::join(s.bytes, " "),
-                                  found == record_at.end()
-                                      ? std::string("no record starts there")
-                                      : fmt::format("#{} {:02X}", found->second->number,
-                                                    fmt::join(found->second->frame.bytes, " ")));
+            misses += fmt::format(
+                "\n  {}{:02X}: {}", s.damaged ? "damaged " : "", fmt::join(s.bytes, " "),
+                found == record_at.end() ? std::string("no record starts there")
+                                         : fmt::format("#{} {:02X}", found->second->number,
+                                                       fmt::join(found->second->frame.bytes, " ")));
         }
     }
     EXPECT_GE(damaged, 1'000U) << "the traffic has too few damaged frames to tell";
@@ -674,20 +730,16 @@ TEST_P(DamagedFrames, AreOneRecordEachAtTheirTrueBoundaries) {
     EXPECT_LE(by_chance.size(), 3U) << "valid frames not sent, over sent ones";
 }
 
-INSTANTIATE_TEST_SUITE_P(, DamagedFrames,
-                         ::testing::Values(Case{Delivery::per_byte, 9600},
-                                           Case{Delivery::per_byte, 115200},
-                                           Case{Delivery::uart_fifo, 9600},
-                                           Case{Delivery::uart_fifo, 115200},
-                                           Case{Delivery::uart_fifo, 9600, true},
-                                           Case{Delivery::usb_1ms, 9600},
-                                           Case{Delivery::usb_1ms, 115200},
-                                           Case{Delivery::usb_16ms, 9600},
-                                           Case{Delivery::usb_16ms, 9600, true},
-                                           Case{Delivery::usb_16ms, 115200}),
-                         [](const ::testing::TestParamInfo<Case>& param) {
-                             return name_of(param.param);
-                         });
+INSTANTIATE_TEST_SUITE_P(
+    , DamagedFrames,
+    ::testing::Values(Case{Delivery::per_byte, 9600}, Case{Delivery::per_byte, 115200},
+                      Case{Delivery::uart_fifo, 9600}, Case{Delivery::uart_fifo, 115200},
+                      Case{Delivery::uart_fifo, 9600, 1}, Case{Delivery::uart_fifo, 9600, 14},
+                      Case{Delivery::usb_1ms, 9600}, Case{Delivery::usb_1ms, 115200},
+                      Case{Delivery::usb_1ms, 115200, 12}, Case{Delivery::usb_16ms, 9600},
+                      Case{Delivery::usb_16ms, 9600, 1}, Case{Delivery::usb_16ms, 9600, 14},
+                      Case{Delivery::usb_16ms, 115200}),
+    [](const ::testing::TestParamInfo<Case>& param) { return name_of(param.param); });
 
 }  // namespace
 }  // namespace rtuscope

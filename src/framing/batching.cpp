@@ -4,7 +4,9 @@
 
 #include <algorithm>
 #include <cstdlib>
+#include <functional>
 #include <map>
+#include <set>
 
 namespace rtuscope {
 namespace {
@@ -18,6 +20,8 @@ constexpr Nanos kLongestInterval = kNanosPerSecond;
 constexpr std::size_t kFewestChunks = 16;
 // A FIFO's trigger level is at least this (a 16550's are 1, 4, 8 and 14 bytes).
 constexpr std::size_t kFewestFifoBytes = 4;
+// A timer's chunks are cut wherever its period falls: at least this many sizes among them.
+constexpr std::size_t kFewestTimerSizes = 3;
 
 // Milliseconds as an adapter's settings give them: whole above 2 ms (a chunk after a
 // latency timer's run comes a little later than the timer, when the next byte ends).
@@ -34,30 +38,54 @@ SizeCounts::const_iterator commonest(const SizeCounts& counts) {
 }
 
 // How far apart a sender's characters are: the line's character time, or more where it
-// pauses between them (at most a quarter character here). Learned from the chunks whose
-// bytes may have come back to back, the commonest size of them: the median of their
-// intervals, per byte.
-Nanos sender_pace(const std::vector<BatchingLearner::Sample>& samples, Nanos ct) {
-    const auto may_be_back_to_back = [&](const BatchingLearner::Sample& s) {
-        const Nanos line_pace = s.bytes_at(ct);
-        return s.bytes >= kFewestFifoBytes && s.interval + ct / 2 >= line_pace &&
-               s.interval <= line_pace + line_pace / 4 + ct / 2;
-    };
-    SizeCounts sizes;
+// pauses between them (up to t1.5, as the spec allows within a frame). Learned from the
+// chunks whose bytes may have come back to back at some such pace: a FIFO's full chunks,
+// each the same bytes at the same pace, agree within a character. Of the sizes with that
+// many agreeing (the rest of a frame, handed over after the receive timeout, may agree as
+// well, but is smaller), the largest; the median of its agreeing intervals, per byte.
+Nanos sender_pace(const std::vector<BatchingLearner::Sample>& samples, Nanos ct, Nanos slowest) {
+    std::map<std::size_t, std::vector<Nanos>, std::greater<>> intervals_by_size;  // largest first
     for (const auto& s : samples) {
-        if (may_be_back_to_back(s)) ++sizes[s.bytes];
-    }
-    if (sizes.empty()) return ct;
-    const std::size_t size = commonest(sizes)->first;
-    std::vector<Nanos> paces;
-    for (const auto& s : samples) {
-        if (s.bytes == size && may_be_back_to_back(s)) {
-            paces.push_back(s.interval / static_cast<Nanos>(s.bytes));
+        if (s.bytes >= kFewestFifoBytes && s.interval + ct / 2 >= s.bytes_at(ct) &&
+            s.interval <= s.bytes_at(slowest) + ct / 2) {
+            intervals_by_size[s.bytes].push_back(s.interval);
         }
     }
-    const auto middle = paces.begin() + static_cast<std::ptrdiff_t>(paces.size() / 2);
-    std::nth_element(paces.begin(), middle, paces.end());
-    return std::max(ct, *middle);
+    for (auto& [size, intervals] : intervals_by_size) {
+        std::ranges::sort(intervals);
+        std::size_t most_agreeing = 0;
+        Nanos pace = ct;
+        for (std::size_t first = 0, last = 0; first < intervals.size(); ++first) {
+            while (last < intervals.size() && intervals[last] - intervals[first] <= ct) ++last;
+            if (last - first > most_agreeing) {
+                most_agreeing = last - first;
+                pace = intervals[(first + last) / 2] / static_cast<Nanos>(size);
+            }
+        }
+        if (most_agreeing >= kFewestChunks) return std::max(ct, pace);
+    }
+    return ct;
+}
+
+// How much longer the samples' intervals are for each byte more they hold: the slope of
+// the least-squares line through them (of at least two sizes).
+double growth_per_byte(const std::vector<const BatchingLearner::Sample*>& samples) {
+    double mean_bytes = 0;
+    double mean_interval = 0;
+    for (const auto* s : samples) {
+        mean_bytes += static_cast<double>(s->bytes);
+        mean_interval += static_cast<double>(s->interval);
+    }
+    mean_bytes /= static_cast<double>(samples.size());
+    mean_interval /= static_cast<double>(samples.size());
+    double covariance = 0;
+    double variance = 0;
+    for (const auto* s : samples) {
+        const double bytes = static_cast<double>(s->bytes) - mean_bytes;
+        covariance += bytes * (static_cast<double>(s->interval) - mean_interval);
+        variance += bytes * bytes;
+    }
+    return covariance / variance;
 }
 
 }  // namespace
@@ -109,7 +137,8 @@ Batching BatchingLearner::verdict() const {
     // before, and many come just then, whatever their size: held until the timer ran out.
     // (A chunk handed over full, at the largest size, comes sooner. Chunks a frame each,
     // polled at a steady rhythm, also pile up at one interval, but one that grows with
-    // their sizes.)
+    // their sizes, by a character or more a byte. A timer's are of several sizes, however
+    // slow the sender: the last of each frame's is of any size.)
     std::size_t largest = 0;
     for (const Sample& s : samples_) largest = std::max(largest, s.bytes);
     const auto held = [&](const Sample& s) {
@@ -125,20 +154,18 @@ Batching BatchingLearner::verdict() const {
         const Nanos typical = *tenth;
         const Nanos below = typical / 50 + 50'000;
         const Nanos above = std::max(2 * ct, typical / 4);
-        std::size_t piled = 0;
-        std::size_t fewest = ~std::size_t{0};
-        std::size_t most = 0;
+        std::vector<const Sample*> piled;
+        std::set<std::size_t> sizes;
         Nanos period = typical;
         for (const Sample& s : samples_) {
             if (!held(s) || s.interval + below < typical || s.interval > typical + above) continue;
-            ++piled;
-            fewest = std::min(fewest, s.bytes);
-            most = std::max(most, s.bytes);
+            piled.push_back(&s);
+            sizes.insert(s.bytes);
             period = std::min(period, s.interval);
         }
-        const bool sizes_vary =
-            piled != 0 && static_cast<Nanos>(most - fewest) * ct > below + above + ct;
-        if (typical >= 2 * ct && piled * 5 >= intervals.size() && sizes_vary) {
+        if (typical >= 2 * ct && piled.size() * 5 >= intervals.size() &&
+            sizes.size() >= kFewestTimerSizes &&
+            growth_per_byte(piled) < static_cast<double>(ct) / 2) {
             batching.kind = Batching::Kind::timer;
             batching.period = period;
             batching.hold = period;
@@ -152,7 +179,7 @@ Batching BatchingLearner::verdict() const {
     // frame, handed over after the FIFO's receive timeout (whole frames a chunk each, at
     // a steady poll, are not). Back to back at the sender's pace: some senders pause
     // between characters (the flow meter in captures/realdata, a bit each time).
-    const Nanos pace = sender_pace(samples_, ct);
+    const Nanos pace = sender_pace(samples_, ct, slowest_pace_);
     const auto came_back_to_back = [&](const Sample& s) {
         return s.bytes >= kFewestFifoBytes && std::abs(s.interval - s.bytes_at(pace)) <= ct / 2;
     };
@@ -184,8 +211,8 @@ Batching BatchingLearner::verdict() const {
     // A chunk's bytes are placed back to back at the line's pace before its time: a
     // slower sender's first byte began earlier, so a silence measured before a full
     // chunk may be that much longer too.
-    batching.hold = kFifoTimeoutChars * ct + ct / 2 +
-                    static_cast<Nanos>(trigger->first) * (pace - ct);
+    batching.hold =
+        kFifoTimeoutChars * ct + ct / 2 + static_cast<Nanos>(trigger->first) * (pace - ct);
     return batching;
 }
 

@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "framing/line_settings.hpp"
 #include "input/chunk.hpp"
 #include "util/time.hpp"
 
@@ -41,7 +42,8 @@ struct Batching {
 // settled after kChunksToSettle chunks with bytes; before that it is the best so far.
 class BatchingLearner {
   public:
-    explicit BatchingLearner(Nanos char_time) : char_time_(char_time) {}
+    explicit BatchingLearner(const LineSettings& line)
+        : char_time_(line.char_time()), slowest_pace_(line.char_time() + line.t15()) {}
 
     void chunk(const Chunk& chunk);
     [[nodiscard]] bool settled() const { return chunks_ >= kChunksToSettle; }
@@ -54,13 +56,13 @@ class BatchingLearner {
         std::size_t bytes = 0;
         bool follows_previous = false;  // the sample before it is its chunk's predecessor
         // How long its bytes take, back to back, at `pace` a character.
-        [[nodiscard]] Nanos bytes_at(Nanos pace) const {
-            return static_cast<Nanos>(bytes) * pace;
-        }
+        [[nodiscard]] Nanos bytes_at(Nanos pace) const { return static_cast<Nanos>(bytes) * pace; }
     };
 
   private:
     Nanos char_time_;
+    // A sender's characters are at most t1.5 apart within a frame.
+    Nanos slowest_pace_;
     Nanos last_time_ = kNoTime;
     bool last_sampled_ = false;  // the last chunk's interval is a sample
     std::size_t chunks_ = 0;
