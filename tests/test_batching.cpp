@@ -56,10 +56,13 @@ bench::TrafficOptions traffic_options(Delivery delivery, std::uint32_t baud, std
     return o;
 }
 
-Batching learned(Delivery delivery, std::uint32_t baud) {
+// What the learner makes of 2,000 frames, from senders pausing `char_pause` after each
+// character.
+Batching learned(Delivery delivery, std::uint32_t baud, Nanos char_pause = 0) {
     BatchingLearner learner(LineSettings{.baud = baud});
-    bench::generate_traffic(traffic_options(delivery, baud, 2'000),
-                            [&](const Chunk& c) { learner.chunk(c); });
+    bench::TrafficOptions o = traffic_options(delivery, baud, 2'000);
+    o.char_pause = char_pause;
+    bench::generate_traffic(o, [&](const Chunk& c) { learner.chunk(c); });
     EXPECT_TRUE(learner.settled());
     return learner.verdict();
 }
@@ -116,22 +119,14 @@ TEST(BatchingLearner, FindsAUartFifoWhoseSendersPauseBetweenCharacters) {
     const LineSettings line{.baud = 9600};
     const Nanos char_time = line.char_time();
     for (const Nanos pause : {char_time / 10, char_time / 2, char_time * 14 / 10}) {
-        bench::TrafficOptions o = traffic_options(Delivery::uart_fifo, 9600, 2'000);
-        o.char_pause = pause;
-        BatchingLearner learner(line);
-        bench::generate_traffic(o, [&](const Chunk& c) { learner.chunk(c); });
-        const Batching b = learner.verdict();
+        const Batching b = learned(Delivery::uart_fifo, 9600, pause);
         EXPECT_EQ(b.kind, Batching::Kind::fifo) << "pause " << pause;
         EXPECT_EQ(b.fifo_trigger, 14U) << "pause " << pause;
         // A full chunk's first byte began 14 pauses before it is placed.
         const Nanos hold = 4 * char_time + char_time / 2 + 14 * pause;
         EXPECT_LE(std::abs(b.hold - hold), 14) << "pause " << pause;
     }
-    bench::TrafficOptions o = traffic_options(Delivery::uart_fifo, 9600, 2'000);
-    o.char_pause = char_time / 10;
-    BatchingLearner learner(line);
-    bench::generate_traffic(o, [&](const Chunk& c) { learner.chunk(c); });
-    EXPECT_EQ(learner.verdict().text(),
+    EXPECT_EQ(learned(Delivery::uart_fifo, 9600, char_time / 10).text(),
               "chunks of 14 bytes, the rest after a pause (a UART FIFO): silences under 6 ms "
               "cannot be seen");
 }
@@ -148,16 +143,13 @@ TEST(BatchingLearner, FindsALatencyTimerWhoseSendersPauseBetweenCharacters) {
     for (const Timer t : {Timer{Delivery::usb_16ms, 9600, 16'000'000},
                           Timer{Delivery::usb_1ms, 115200, 1'000'000}}) {
         const LineSettings line{.baud = t.baud};
-        bench::TrafficOptions o = traffic_options(t.delivery, t.baud, 2'000);
-        o.char_pause = line.char_time() * 12 / 10;
-        BatchingLearner learner(line);
-        bench::generate_traffic(o, [&](const Chunk& c) { learner.chunk(c); });
-        const Batching b = learner.verdict();
+        const Nanos pause = line.char_time() * 12 / 10;
+        const Batching b = learned(t.delivery, t.baud, pause);
         EXPECT_EQ(b.kind, Batching::Kind::timer) << to_string(t.delivery);
         // A chunk comes when the first byte after the period ends: up to a character
         // and a pause later.
         EXPECT_GE(b.period, t.period) << to_string(t.delivery);
-        EXPECT_LE(b.period, t.period + line.char_time() + o.char_pause) << to_string(t.delivery);
+        EXPECT_LE(b.period, t.period + line.char_time() + pause) << to_string(t.delivery);
         EXPECT_EQ(b.hold, b.period) << to_string(t.delivery);
     }
 }
