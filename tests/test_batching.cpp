@@ -573,6 +573,29 @@ TEST(DamagedFrameReadings, AReadingEndsWhereTwoDamagedFramesThatEndAtTheNextFram
     expect_noise_then_damaged(bus.run(), 4, {0x1A}, {read, answer, read1}, answer1);
 }
 
+TEST(DamagedFrameReadings, AnAnswerIsAsLongAsTheSlavesLastAnswerToAsMany) {
+    // Slave 1 answers one register whatever is asked, as some devices do: 7 bytes, not the
+    // 9 a read of 2 asks for. Its answer, a data byte hit, is followed by a write of 24
+    // coils whose function code took a hit (0F -> 1F), then by that write's answer. From
+    // the answer's ninth byte, 02 97 00 18 03 and F0 8F 43 A2 C9 read as two exceptions
+    // that end where the write's answer begins.
+    const test::Bytes answer1 = test::with_crc({0x01, 0x03, 0x02, 0x00, 0x07});
+    test::Bytes answer = test::with_crc({0x01, 0x03, 0x02, 0xD4, 0xD8});
+    answer[4] ^= 0x04;
+    test::Bytes write =
+        test::with_crc({0x13, 0x0F, 0x02, 0x97, 0x00, 0x18, 0x03, 0xF0, 0x8F, 0x43});
+    const test::Bytes written = answer_to_write(write);
+    write[1] = 0x1F;
+    Batched bus;
+    bus.chunk({kRead1, answer1}).chunk({kRead6, kAnswer6}).chunk({kRead1, answer, write, written});
+    const auto& r = bus.run();
+    ASSERT_GE(r.size(), 7U);
+    EXPECT_EQ(r[4].frame.bytes, kRead1);
+    expect_damaged(r[5], answer);
+    EXPECT_EQ(r[5].frame.reading, Reading::response);
+    EXPECT_EQ(r.back().frame.bytes, written);
+}
+
 // The flow meter of captures/realdata (a real line whose slave pauses a bit between
 // characters), handed over by a 16550 UART's FIFO, with a bit flipped in every third
 // frame where its function code and byte count survive: each frame one record at its

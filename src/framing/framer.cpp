@@ -35,6 +35,11 @@ constexpr std::size_t kMaxNoise = 3;
 // or proven silence for where it ends to count (a request and its answer, both hit).
 constexpr int kMaxChain = 2;
 
+// A frame's slave and function, as the key of Framer::answer_counts_.
+std::uint16_t answer_count_key(std::span<const std::uint8_t> head) {
+    return static_cast<std::uint16_t>((head[0] << 8U) | head[1]);
+}
+
 // A gap before the first byte of the input or of a new channel: always a boundary.
 constexpr Nanos kBoundary = std::numeric_limits<Nanos>::max();
 
@@ -868,7 +873,12 @@ Framer::DamagedFit Framer::damaged_frame(std::size_t start, std::size_t to,
         asked = (unsigned{awaited->request[4]} << 8U) | awaited->request[5];
         if (asked > spec.max_quantity) asked = 0;
     }
-    const bool counted_as_asked = asked != 0 && head[2] == bytes_for(asked);
+    // As many bytes as asked, or as this slave's last valid answer to as many gave.
+    const auto before = answer_counts_.find(answer_count_key(head));
+    const bool counted_as_before = before != answer_counts_.end() &&
+                                   before->second.asked == asked &&
+                                   before->second.byte_count == head[2];
+    const bool counted_as_asked = asked != 0 && (head[2] == bytes_for(asked) || counted_as_before);
     const bool answer_awaited = awaited_function && awaited->slave == head[0];
     // An echo, or the answer to a write of several, that repeats the awaited request's
     // first six bytes to the bit: 1 in 2^32 by chance.
@@ -1255,8 +1265,24 @@ void Framer::emit(std::size_t at, std::size_t length, RecordClass cls, Reading r
     if (crc.status == CrcStatus::ok && frame.bytes.size() >= kMinAdu) {
         slaves_seen_.set(frame.bytes[0]);
         functions_seen_.set(frame.bytes[1] & 0x7FU);
+        if (reading == Reading::response) remember_answer_count(frame);
     }
     emit_(frame);
+}
+
+void Framer::remember_answer_count(const Frame& answer) {
+    const AwaitedAnswer* awaited =
+        options_.expectation != nullptr ? options_.expectation->awaited(answer.end) : nullptr;
+    const auto head = std::span(answer.bytes);
+    if (awaited == nullptr || awaited->slave != head[0] || awaited->function != head[1] ||
+        awaited->request.size() < 6 ||
+        options_.rules->function(head[0], head[1]).response_length.kind !=
+            LengthRule::Kind::counted) {
+        return;
+    }
+    const auto asked =
+        static_cast<std::uint16_t>((awaited->request[4] << 8U) | awaited->request[5]);
+    answer_counts_[answer_count_key(head)] = {asked, head[2]};
 }
 
 void Framer::add_time_jump_notes(Frame& frame, std::size_t at, std::size_t length) const {

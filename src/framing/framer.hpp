@@ -204,6 +204,7 @@ class Framer {
     void add_char_error_note(Frame& frame, std::size_t at, std::size_t length) const;
     // Where in the frame at `at` the input's clock went back, if anywhere.
     void add_time_jump_notes(Frame& frame, std::size_t at, std::size_t length) const;
+    void remember_answer_count(const Frame& answer);
     // The silence measured before byte `at`: kNoTime inside a chunk.
     [[nodiscard]] Nanos gap_at(std::size_t at) const;
     [[nodiscard]] Nanos gap_at(const Piece& piece, std::size_t at) const;  // `at` in `piece`
@@ -260,6 +261,14 @@ class Framer {
     bool seen_valid_frame_ = false;
     std::bitset<256> slaves_seen_;  // the addresses of frames whose CRC checks
     std::bitset<128> functions_seen_;  // their function codes, without the exception bit
+    // The byte count of each slave's last valid answer to a read, and the quantity its
+    // request asked, by slave and function (slave << 8 | function): a device may answer
+    // its own count whatever is asked (one register, say).
+    struct AnswerCount {
+        std::uint16_t asked = 0;
+        std::uint8_t byte_count = 0;
+    };
+    std::unordered_map<std::uint16_t, AnswerCount> answer_counts_;
     bool stopped_ = false;  // finish(true): the bytes at the end were cut by the stop
     // While a packet the capture cut is decided: how many of its bytes it did not keep.
     std::uint32_t not_captured_ = 0;
