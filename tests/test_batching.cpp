@@ -370,6 +370,27 @@ TEST(DamagedFrameReadings, AJunkByteBeforeTwoDamagedFramesStaysApart) {
     expect_noise_then_damaged(bus.run(), 3, {0x00}, {read, answer}, kRead1);
 }
 
+TEST(DamagedFrameReadings, AJunkByteBeforeAMuchLikelierDamagedFrameStaysApartAnywhere) {
+    // FF 16 02 01 3D 00 3B xx xx 16 also reads as a Mask Write to slave 255 (neither seen
+    // on this bus); slave 22's read of 59 inputs after the FF, its CRC hit, is followed by
+    // its answer, whose function code took a hit (02 -> 06): neither ends where a frame or
+    // a silence begins.
+    const test::Bytes read22 = test::with_crc({0x16, 0x02, 0x00, 0x00, 0x00, 0x08});
+    const test::Bytes inputs22 = test::with_crc({0x16, 0x02, 0x01, 0x5A});
+    const test::Bytes read = damaged(test::with_crc({0x16, 0x02, 0x01, 0x3D, 0x00, 0x3B}));
+    test::Bytes answer =
+        test::with_crc({0x16, 0x02, 0x08, 0x7A, 0x5A, 0x50, 0xB8, 0x4A, 0xE0, 0xDB, 0x40});
+    answer[1] = 0x06;
+    Batched bus;
+    bus.chunk({read22, inputs22}).chunk({kRead1, kAnswer1}).chunk({{0xFF}, read, answer, kRead6});
+    const auto& r = bus.run();
+    ASSERT_GE(r.size(), 7U);
+    EXPECT_EQ(r[4].kind, Kind::noise);
+    EXPECT_EQ(r[4].frame.bytes, test::Bytes{0xFF});
+    expect_damaged(r[5], read);
+    EXPECT_EQ(r.back().frame.bytes, kRead6);
+}
+
 TEST(DamagedFrameReadings, AQuantityTwoBitErrorsFromAnyAllowedIsUnlikely) {
     // 05 03 02 6C 85 54 E7 5B also reads as a read of 0x8554 registers, ending where the
     // next frame begins; the answer, with a junk byte after it, is the likelier.

@@ -717,14 +717,14 @@ void Framer::classify_unframed(std::size_t from, std::size_t to, bool at_end) {
         const DamagedFit fit =
             lengths_apply ? damaged_frame(start, to, false, kMaxChain, at_end) : DamagedFit{};
         // A junk byte or two before a damaged frame can read as a frame of its own: the
-        // frame after them wins when its reading is much the likelier and it ends where the
-        // next frame or a proven silence begins, or (by a wider margin) where another
-        // damaged frame that ends so begins. So do three bytes of line noise, before a
-        // frame that ends at the next frame by a wider margin still.
+        // frame after them wins when its reading is much the likelier, by a wider margin
+        // where it does not end where the next frame or a proven silence begins (another
+        // damaged frame, its length lost, may follow it). So do three bytes of line noise,
+        // before a frame that ends at the next frame, by a wider margin still.
         std::size_t junk = 0;
         for (std::size_t n = 1;
              fit.length != 0 && junk == 0 && n <= kMaxNoise && start + n < to; ++n) {
-            const DamagedFit there = damaged_frame(start + n, to, true, kMaxChain, at_end);
+            const DamagedFit there = damaged_frame(start + n, to, n > kMaxJunk, kMaxChain, at_end);
             const int margin = n > kMaxJunk ? 4 : there.where == 3 ? 2 : 3;
             const bool likelier =
                 there.rank >= fit.rank + margin && (n <= kMaxJunk || there.where == 3);
