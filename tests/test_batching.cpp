@@ -391,6 +391,35 @@ TEST(DamagedFrameReadings, AJunkByteBeforeAMuchLikelierDamagedFrameStaysApartAny
     EXPECT_EQ(r.back().frame.bytes, kRead6);
 }
 
+TEST(DamagedFrameReadings, DamagedFramesFromTheInputsFirstByteToItsFirstValidFrameAreRead) {
+    // The input begins with slave 6's read and its answer, both hit, in the chunk that
+    // holds the first valid frame: they run, one after the other, exactly to it.
+    const test::Bytes read = damaged(kRead6);
+    const test::Bytes answer = damaged(kAnswer6);
+    Batched bus;
+    bus.chunk({read, answer, kRead1, kAnswer1});
+    const auto& r = bus.run();
+    ASSERT_EQ(r.size(), 4U);
+    expect_damaged(r[0], read);
+    EXPECT_EQ(r[0].frame.reading, Reading::request);
+    expect_damaged(r[1], answer);
+    EXPECT_EQ(r[2].frame.bytes, kRead1);
+}
+
+TEST(DamagedFrameReadings, TheTailOfAFrameTheInputBeganInIsNoDamagedFrame) {
+    // A port opened in the middle of slave 20's answer hears its last 9 bytes, then a
+    // read. Their first 8 read as a read of registers, or as an answer of 3 bytes, with a
+    // junk byte after it: only readings that end exactly at the first valid frame count.
+    const test::Bytes tail = {0x14, 0x03, 0x03, 0x7E, 0x3D, 0x9D, 0x95, 0xAB, 0x96};
+    Batched bus;
+    bus.chunk({tail, kRead1, kAnswer1});
+    const auto& r = bus.run();
+    ASSERT_EQ(r.size(), 3U);
+    EXPECT_EQ(r[0].kind, Kind::noise);
+    EXPECT_EQ(r[0].frame.bytes, tail);
+    EXPECT_EQ(r[1].frame.bytes, kRead1);
+}
+
 TEST(DamagedFrameReadings, AQuantityTwoBitErrorsFromAnyAllowedIsUnlikely) {
     // 05 03 02 6C 85 54 E7 5B also reads as a read of 0x8554 registers, ending where the
     // next frame begins; the answer, with a junk byte after it, is the likelier.

@@ -644,12 +644,13 @@ void Framer::decide(bool at_end) {
         if (waiting) {
             // Long garbage must not grow the buffer without end: what lies a whole ADU
             // before the undecided position can no longer be part of a frame.
-            if (resync - pos_ > 16 * kMaxAdu) classify_unframed(pos_, resync - kMaxAdu, at_end);
+            if (resync - pos_ > 16 * kMaxAdu)
+                classify_unframed(pos_, resync - kMaxAdu, false, at_end);
             // After what that emitted, which forgets the hint.
             scan_hint_ = resync;
             break;
         }
-        classify_unframed(pos_, resync, at_end);
+        classify_unframed(pos_, resync, resync < bytes_.size(), at_end);
     }
 
     // What is decided goes once it is all decided, or in batches (a front erase each):
@@ -707,15 +708,22 @@ Reading Framer::reading_by_shape(std::span<const std::uint8_t> frame, Nanos at,
     return reading_for(Role::response, frame[1]);
 }
 
-void Framer::classify_unframed(std::size_t from, std::size_t to, bool at_end) {
+void Framer::classify_unframed(std::size_t from, std::size_t to, bool before_frame, bool at_end) {
     const bool timed = has_time(byte_end(from));
     // The bytes a stop cut off end nowhere a frame does: no length is taken from them.
     const bool cut_at_stop = stopped_ && to == bytes_.size();
     const bool lengths_apply = seen_valid_frame_ && !cut_at_stop;
+    // Before the input's first valid frame, bytes may be the tail of a frame the input
+    // began in the middle of (a port opened mid-frame): no length is taken there, but for
+    // damaged frames that run from the input's first byte, one after another, exactly to
+    // the first valid frame, as a tail does once in many.
+    bool from_input_start = !seen_valid_frame_ && before_frame && base_ + from == 0;
     std::size_t start = from;
     while (start < to) {
-        const DamagedFit fit =
-            lengths_apply ? damaged_frame(start, to, false, kMaxChain, at_end) : DamagedFit{};
+        const DamagedFit fit = lengths_apply ? damaged_frame(start, to, false, kMaxChain, at_end)
+                               : from_input_start
+                                   ? damaged_frame(start, to, true, kMaxChain, at_end)
+                                   : DamagedFit{};
         // A junk byte or two before a damaged frame can read as a frame of its own: the
         // frame after them wins when its reading is much the likelier, by a wider margin
         // where it does not end where the next frame or a proven silence begins (another
@@ -723,7 +731,8 @@ void Framer::classify_unframed(std::size_t from, std::size_t to, bool at_end) {
         // before a frame that ends at the next frame, by a wider margin still.
         std::size_t junk = 0;
         for (std::size_t n = 1;
-             fit.length != 0 && junk == 0 && n <= kMaxNoise && start + n < to; ++n) {
+             lengths_apply && fit.length != 0 && junk == 0 && n <= kMaxNoise && start + n < to;
+             ++n) {
             const DamagedFit there = damaged_frame(start + n, to, n > kMaxJunk, kMaxChain, at_end);
             const int margin = n > kMaxJunk ? 4 : there.where == 3 ? 2 : 3;
             const bool likelier =
@@ -745,6 +754,7 @@ void Framer::classify_unframed(std::size_t from, std::size_t to, bool at_end) {
             start += fit.length;
             continue;
         }
+        from_input_start = false;
         std::size_t end = gap_after(start, to);
         // A frame whose CRC fails may begin after a few stray bytes: one that ends just
         // where the next frame or a proven silence begins. With exact timing the stray

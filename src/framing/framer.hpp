@@ -111,8 +111,9 @@ class Framer {
     [[nodiscard]] bool gap_before(std::size_t at) const;
     // A silence (or the start of the input or of a channel) of at least t3.5.
     [[nodiscard]] bool ends_frame(Nanos gap) const { return gap != kNoTime && gap >= t35_; }
-    // `at_end`: as in decide(), no byte follows the ones buffered.
-    void classify_unframed(std::size_t from, std::size_t to, bool at_end);
+    // `at_end`: as in decide(), no byte follows the ones buffered. `before_frame`: a frame
+    // begins at `to`.
+    void classify_unframed(std::size_t from, std::size_t to, bool before_frame, bool at_end);
     // A silence at `at` that batching cannot have made up (FramerOptions::batching).
     [[nodiscard]] bool proven_gap_before(std::size_t at) const;
     // A frame whose CRC fails at `start`, before `to` (where the next frame starts): the
