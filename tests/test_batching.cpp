@@ -538,6 +538,25 @@ TEST(DamagedFrameReadings, AnAnswerThatRepeatsTheAwaitedRequestIsLikeliest) {
     expect_awaited_answer_found(bus.run(), answer, kRead1);
 }
 
+TEST(DamagedFrameReadings, AnAnswerFromASlaveMoreThanABitFromTheAskedOneIsUnlikely) {
+    // Slave 2 does not answer a read; slave 12's read after it, its quantity hit
+    // (0003 -> 1003), also reads as an answer of 2 bytes (0C 03 02 AD 10 03 94), of the
+    // function awaited, but from slave 12, three bits from 2. The answer after the read
+    // took a hit in its byte count (06 -> 02).
+    const test::Bytes read2 = test::with_crc({0x02, 0x03, 0x00, 0xC8, 0x00, 0x11});
+    test::Bytes read = test::with_crc({0x0C, 0x03, 0x02, 0xAD, 0x00, 0x03});
+    read[4] = 0x10;
+    test::Bytes answer = test::with_crc({0x0C, 0x03, 0x06, 0x5D, 0x15, 0x0E, 0xB3, 0xF3, 0x8B});
+    answer[2] = 0x02;
+    Batched bus;
+    bus.chunk({kRead6, kAnswer6}).chunk({read2}).chunk({read, answer, kRead1});
+    const auto& r = bus.run();
+    ASSERT_GE(r.size(), 5U);
+    expect_damaged(r[3], read);
+    EXPECT_EQ(r[3].frame.reading, Reading::request);
+    EXPECT_EQ(r.back().frame.bytes, kRead1);
+}
+
 TEST(DamagedFrameReadings, AFunctionSeenOnTheBusIsLikelierThanOneNeverSeen) {
     // FF 14 03 00 20 10 1E xx also reads as slave 255's request to read a file record (a
     // function no frame on this bus has used); slave 20's read of registers, its quantity

@@ -17,6 +17,7 @@
 
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <functional>
 #include <limits>
 #include <span>
@@ -35,9 +36,9 @@ constexpr std::size_t kMaxNoise = 3;
 // or proven silence for where it ends to count (a request and its answer, both hit).
 constexpr int kMaxChain = 2;
 
-// A frame's slave and function, as the key of Framer::answer_counts_.
-std::uint16_t answer_count_key(std::span<const std::uint8_t> head) {
-    return static_cast<std::uint16_t>((head[0] << 8U) | head[1]);
+// A slave, a function and the quantity asked, as the key of Framer::answer_counts_.
+std::uint32_t answer_count_key(std::uint8_t slave, std::uint8_t function, unsigned asked) {
+    return (std::uint32_t{slave} << 24U) | (std::uint32_t{function} << 16U) | (asked & 0xFFFFU);
 }
 
 // A gap before the first byte of the input or of a new channel: always a boundary.
@@ -848,8 +849,9 @@ Framer::DamagedFit Framer::damaged_frame(std::size_t start, std::size_t to,
     //   an answer: an echo or the answer to a write of several that repeats the awaited
     //     request's first six bytes 3; awaited from this slave, or with the byte count
     //     asked, 2; an echo or the answer to a write of several, of the function awaited
-    //     from another slave, as its word; another answer of that function 1 (the address
-    //     may be the byte that took the hit); awaited by none 0.
+    //     from another slave, as its word; another answer of that function from an
+    //     address one bit from the asked slave's 1 (the address may be the byte that took
+    //     the hit); from any other address, or awaited by none, 0.
     const FunctionSpec& spec = options_.rules->function(head[0], head[1]);
     if (spec.request_length.kind == LengthRule::Kind::search) return chosen;
     const bool reads = spec.access == DataAccess::read && spec.max_quantity != 0;
@@ -883,24 +885,29 @@ Framer::DamagedFit Framer::damaged_frame(std::size_t start, std::size_t to,
         asked = (unsigned{awaited->request[4]} << 8U) | awaited->request[5];
         if (asked > spec.max_quantity) asked = 0;
     }
-    // As many bytes as asked, or as this slave's last valid answer to as many gave.
-    const auto before = answer_counts_.find(answer_count_key(head));
-    const bool counted_as_before = before != answer_counts_.end() &&
-                                   before->second.asked == asked &&
-                                   before->second.byte_count == head[2];
-    const bool counted_as_asked = asked != 0 && (head[2] == bytes_for(asked) || counted_as_before);
+    // As many bytes as asked, or as the asked slave's last valid answer to as many gave.
+    const auto counted_as_before = [&] {
+        const auto before = answer_counts_.find(answer_count_key(awaited->slave, head[1], asked));
+        return before != answer_counts_.end() && before->second == head[2];
+    };
+    const bool counted_as_asked =
+        asked != 0 && (head[2] == bytes_for(asked) || counted_as_before());
     const bool answer_awaited = awaited_function && awaited->slave == head[0];
     // An echo, or the answer to a write of several, that repeats the awaited request's
     // first six bytes to the bit: 1 in 2^32 by chance.
     const bool repeats_request = answer_awaited && !exception && spec.answer_repeats_word &&
                                  head.size() >= 6 && awaited->request.size() >= 6 &&
                                  std::ranges::equal(head.first(6), awaited->request.first(6));
-    const int response_likely =
-        repeats_request                                                     ? 3
-        : answer_awaited || counted_as_asked                                ? 2
-        : awaited_function && !exception && spec.answer_repeats_word        ? word_likely
-        : awaited_function                                                  ? 1
-                                                                            : 0;
+    // Another slave's address one bit from the awaited one's: the address may have taken
+    // the hit (further, that takes more than one).
+    const bool address_one_bit_off =
+        awaited != nullptr && std::popcount(static_cast<unsigned>(awaited->slave ^ head[0])) == 1;
+    const int response_likely = repeats_request                      ? 3
+                                : answer_awaited || counted_as_asked ? 2
+                                : awaited_function && !exception && spec.answer_repeats_word
+                                    ? word_likely
+                                : awaited_function && address_one_bit_off ? 1
+                                                                          : 0;
     // An address, and a function, that valid frames have shown on this bus are likelier
     // than ones they have not (a junk byte read as an address, a data byte as a function).
     const int seen_on_bus = (slaves_seen_.test(head[0]) ? 1 : 0) +
@@ -925,7 +932,7 @@ Framer::DamagedFit Framer::damaged_frame(std::size_t start, std::size_t to,
             head[6] != bytes_for(word)) {
             from_quantity = 9 + bytes_for(word);
         }
-        if (role == Role::response && asked != 0 && !counted_as_asked) {
+        if (role == Role::response && likely > 0 && asked != 0 && !counted_as_asked) {
             from_quantity = 5 + bytes_for(asked);
         }
         if (from_quantity) likely = 1;
@@ -1290,9 +1297,8 @@ void Framer::remember_answer_count(const Frame& answer) {
             LengthRule::Kind::counted) {
         return;
     }
-    const auto asked =
-        static_cast<std::uint16_t>((awaited->request[4] << 8U) | awaited->request[5]);
-    answer_counts_[answer_count_key(head)] = {asked, head[2]};
+    const unsigned asked = (unsigned{awaited->request[4]} << 8U) | awaited->request[5];
+    answer_counts_[answer_count_key(head[0], head[1], asked)] = head[2];
 }
 
 void Framer::add_time_jump_notes(Frame& frame, std::size_t at, std::size_t length) const {

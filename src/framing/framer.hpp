@@ -262,14 +262,10 @@ class Framer {
     bool seen_valid_frame_ = false;
     std::bitset<256> slaves_seen_;  // the addresses of frames whose CRC checks
     std::bitset<128> functions_seen_;  // their function codes, without the exception bit
-    // The byte count of each slave's last valid answer to a read, and the quantity its
-    // request asked, by slave and function (slave << 8 | function): a device may answer
-    // its own count whatever is asked (one register, say).
-    struct AnswerCount {
-        std::uint16_t asked = 0;
-        std::uint8_t byte_count = 0;
-    };
-    std::unordered_map<std::uint16_t, AnswerCount> answer_counts_;
+    // The byte count of each slave's last valid answer to a read, by slave, function and
+    // the quantity its request asked (answer_count_key): a device may answer its own count
+    // whatever is asked (one register, say).
+    std::unordered_map<std::uint32_t, std::uint8_t> answer_counts_;
     bool stopped_ = false;  // finish(true): the bytes at the end were cut by the stop
     // While a packet the capture cut is decided: how many of its bytes it did not keep.
     std::uint32_t not_captured_ = 0;
