@@ -435,6 +435,24 @@ TEST(DamagedFrameReadings, AQuantityTwoBitErrorsFromAnyAllowedIsUnlikely) {
     EXPECT_EQ(r[5].frame.bytes, kRead6);
 }
 
+TEST(DamagedFrameReadings, AWordADeviceHasShownItUsesOutsideTheSpecIsNoEvidenceAgainst) {
+    // Slave 1 takes function 4 as a write of a value it echoes (213 is no quantity of
+    // input registers). Its next, 00D2, took a hit (10D2, two bits from any quantity
+    // allowed), and so did its echo's function code (04 -> 00).
+    const test::Bytes set = test::with_crc({0x01, 0x04, 0x00, 0x15, 0x00, 0xD5});
+    test::Bytes request = test::with_crc({0x01, 0x04, 0x00, 0x15, 0x00, 0xD2});
+    test::Bytes echo = request;
+    request[4] = 0x10;
+    echo[1] = 0x00;
+    Batched bus;
+    bus.chunk({set, set}).chunk({kRead6, kAnswer6}).chunk({request, echo, kRead6});
+    const auto& r = bus.run();
+    ASSERT_GE(r.size(), 6U);
+    expect_damaged(r[4], request);
+    EXPECT_EQ(r[4].frame.reading, Reading::request);
+    EXPECT_EQ(r.back().frame.bytes, kRead6);
+}
+
 TEST(DamagedFrameReadings, TheAnswerToAWriteOfSeveralRepeatsItsQuantity) {
     // Slave 5's answer, its address hit (05 -> 01), then a read whose CRC took a hit: the
     // 16 bytes also read as a write of 50 coils whose byte count (44) took it.

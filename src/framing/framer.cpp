@@ -41,6 +41,11 @@ std::uint32_t answer_count_key(std::uint8_t slave, std::uint8_t function, unsign
     return (std::uint32_t{slave} << 24U) | (std::uint32_t{function} << 16U) | (asked & 0xFFFFU);
 }
 
+// A frame's slave and function, as an index of Framer::disallowed_words_seen_.
+std::size_t slave_function(std::span<const std::uint8_t> head) {
+    return (std::size_t{head[0]} << 7U) | (head[1] & 0x7FU);
+}
+
 // A gap before the first byte of the input or of a new channel: always a boundary.
 constexpr Nanos kBoundary = std::numeric_limits<Nanos>::max();
 
@@ -862,10 +867,14 @@ Framer::DamagedFit Framer::damaged_frame(std::size_t start, std::size_t to,
         }
         return false;
     };
+    // A device whose valid requests have shown words the function does not allow: a word
+    // it does not allow is no evidence against a reading.
+    const bool disallowed_seen = disallowed_words_seen_.test(slave_function(head));
     const int word_likely = head.size() < 6 || spec.request_word == RequestWord::none ? 1
-                            : spec.allows_request_word(word)                         ? 2
-                            : one_bit_from_allowed()                                 ? 0
-                                                                                     : -1;
+                            : spec.allows_request_word(word)                          ? 2
+                            : disallowed_seen                                         ? 1
+                            : one_bit_from_allowed()                                  ? 0
+                                                                                      : -1;
     const int request_likely = head[0] == 0 && reads ? 0 : word_likely;
     const AwaitedAnswer* awaited =
         options_.expectation != nullptr ? options_.expectation->awaited(byte_end(start)) : nullptr;
@@ -1283,6 +1292,7 @@ void Framer::emit(std::size_t at, std::size_t length, RecordClass cls, Reading r
         slaves_seen_.set(frame.bytes[0]);
         functions_seen_.set(frame.bytes[1] & 0x7FU);
         if (reading == Reading::response) remember_answer_count(frame);
+        if (reading == Reading::request) remember_request_word(frame);
     }
     emit_(frame);
 }
@@ -1299,6 +1309,14 @@ void Framer::remember_answer_count(const Frame& answer) {
     }
     const unsigned asked = (unsigned{awaited->request[4]} << 8U) | awaited->request[5];
     answer_counts_[answer_count_key(head[0], head[1], asked)] = head[2];
+}
+
+void Framer::remember_request_word(const Frame& request) {
+    const auto head = std::span(request.bytes);
+    const FunctionSpec& spec = options_.rules->function(head[0], head[1]);
+    if (head.size() < 8 || spec.request_word == RequestWord::none) return;
+    const auto word = static_cast<std::uint16_t>((head[4] << 8U) | head[5]);
+    if (!spec.allows_request_word(word)) disallowed_words_seen_.set(slave_function(head));
 }
 
 void Framer::add_time_jump_notes(Frame& frame, std::size_t at, std::size_t length) const {

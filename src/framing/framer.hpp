@@ -206,6 +206,7 @@ class Framer {
     // Where in the frame at `at` the input's clock went back, if anywhere.
     void add_time_jump_notes(Frame& frame, std::size_t at, std::size_t length) const;
     void remember_answer_count(const Frame& answer);
+    void remember_request_word(const Frame& request);
     // The silence measured before byte `at`: kNoTime inside a chunk.
     [[nodiscard]] Nanos gap_at(std::size_t at) const;
     [[nodiscard]] Nanos gap_at(const Piece& piece, std::size_t at) const;  // `at` in `piece`
@@ -266,6 +267,10 @@ class Framer {
     // the quantity its request asked (answer_count_key): a device may answer its own count
     // whatever is asked (one register, say).
     std::unordered_map<std::uint32_t, std::uint8_t> answer_counts_;
+    // By slave and function (slave << 7 | function): a valid request has shown a word
+    // (a quantity, a coil's value) the function does not allow (a device that uses the
+    // function its own way).
+    std::bitset<std::size_t{256} * 128> disallowed_words_seen_;
     bool stopped_ = false;  // finish(true): the bytes at the end were cut by the stop
     // While a packet the capture cut is decided: how many of its bytes it did not keep.
     std::uint32_t not_captured_ = 0;
