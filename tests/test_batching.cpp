@@ -420,6 +420,29 @@ TEST(DamagedFrameReadings, TheTailOfAFrameTheInputBeganInIsNoDamagedFrame) {
     EXPECT_EQ(r[1].frame.bytes, kRead1);
 }
 
+TEST(DamagedFrameReadings, AFunctionAnsweredWithDataIsNeverSentToEveryone) {
+    // 00 07 04 02 also reads as Read Exception Status sent to everyone (as a write to
+    // everyone was), whose answer nobody could send. Slave 7's read after the 00, its
+    // quantity hit (0003 -> 1003), ends
+    // where its damaged answer begins, which ends where slave 8's read, its quantity hit
+    // too, begins, which ends at its answer.
+    const test::Bytes read7 = test::with_crc({0x07, 0x04, 0x00, 0x00, 0x00, 0x01});
+    const test::Bytes registers7 = test::with_crc({0x07, 0x04, 0x02, 0x00, 0x05});
+    test::Bytes read = test::with_crc({0x07, 0x04, 0x02, 0x1E, 0x00, 0x03});
+    read[4] ^= 0x10;
+    test::Bytes answer = test::with_crc({0x07, 0x04, 0x06, 0x8F, 0x53, 0xC9, 0xAF, 0x0A, 0xBA});
+    answer[5] ^= 0x04;
+    test::Bytes read8 = test::with_crc({0x08, 0x03, 0x00, 0x5E, 0x00, 0x03});
+    read8[4] ^= 0x10;
+    const test::Bytes answer8 =
+        test::with_crc({0x08, 0x03, 0x06, 0xCA, 0x92, 0x2B, 0x48, 0xAF, 0xE0});
+    const test::Bytes broadcast = test::with_crc({0x00, 0x06, 0x00, 0x01, 0x00, 0x05});
+    Batched bus;
+    bus.chunk({kRead6, kAnswer6}).chunk({read7, registers7}).chunk({broadcast});
+    bus.chunk({{0x00}, read, answer, read8, answer8});
+    expect_noise_then_damaged(bus.run(), 5, {0x00}, {read, answer, read8}, answer8);
+}
+
 TEST(DamagedFrameReadings, AQuantityTwoBitErrorsFromAnyAllowedIsUnlikely) {
     // 05 03 02 6C 85 54 E7 5B also reads as a read of 0x8554 registers, ending where the
     // next frame begins; the answer, with a junk byte after it, is the likelier.

@@ -850,7 +850,7 @@ Framer::DamagedFit Framer::damaged_frame(std::size_t start, std::size_t to,
     // once in billions; 2: by evidence that chance rarely gives; 1: by what the reading
     // allows; 0: against it, by one bit error; -1: by more than one):
     //   a request: its word (a quantity, a coil's FF00 or 0000) as allowed 2, one bit
-    //     from it 0, further -1, none to check 1; a read sent to everyone 0;
+    //     from it 0, further -1, none to check 1; one answered with data sent to everyone 0;
     //   an answer: an echo or the answer to a write of several that repeats the awaited
     //     request's first six bytes 3; awaited from this slave, or with the byte count
     //     asked, 2; an echo or the answer to a write of several, of the function awaited
@@ -875,7 +875,11 @@ Framer::DamagedFit Framer::damaged_frame(std::size_t start, std::size_t to,
                             : disallowed_seen                                         ? 1
                             : one_bit_from_allowed()                                  ? 0
                                                                                       : -1;
-    const int request_likely = head[0] == 0 && reads ? 0 : word_likely;
+    // Nobody answers a request sent to everyone: broadcasts are writes (the serial line
+    // specification, 2.1), never a function whose answer carries data.
+    const bool answered_with_data =
+        spec.access != DataAccess::write && spec.answer == Answer::reply;
+    const int request_likely = head[0] == 0 && answered_with_data ? 0 : word_likely;
     const AwaitedAnswer* awaited =
         options_.expectation != nullptr ? options_.expectation->awaited(byte_end(start)) : nullptr;
     const bool exception = (head[1] & 0x80U) != 0;
