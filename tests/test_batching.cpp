@@ -662,6 +662,50 @@ TEST(DamagedFrameReadings, AFrameByCrcInsideADamagedAnswerBeforeADamagedFrameIsB
     EXPECT_EQ(r[5].frame.bytes, next_answer);
 }
 
+TEST(DamagedFrameReadings, AFrameNothingFollowsInsideTheAwaitedDamagedAnswerIsByChance) {
+    // Slave 12's answer of 30 registers, a data byte hit, holds 4C 0B 74 B7: Get Comm
+    // Event Counter to slave 76, its CRC right by chance. Nothing follows it that starts a
+    // frame; the awaited answer, as long as asked, ends where the next frame begins.
+    const test::Bytes read = test::with_crc({0x0C, 0x04, 0x03, 0x28, 0x00, 0x1E});
+    const test::Bytes answer = {0x0C, 0x04, 0x3C, 0x59, 0x11, 0xD9, 0x30, 0x1F, 0xC1, 0xEA, 0x53,
+                                0xAE, 0xBB, 0xD6, 0x84, 0x51, 0x4C, 0x0B, 0x74, 0xB7, 0xDC, 0x9A,
+                                0xEF, 0x29, 0x3D, 0xDA, 0x62, 0xD9, 0xA5, 0x91, 0x0D, 0xEB, 0x6B,
+                                0x0D, 0x9F, 0x64, 0x7B, 0xD3, 0x04, 0x4A, 0xE5, 0xA8, 0x93, 0x31,
+                                0x55, 0xC6, 0x67, 0xF8, 0x8D, 0x51, 0xC9, 0x15, 0x58, 0xD7, 0x55,
+                                0xC3, 0xCF, 0xBB, 0x49, 0xC4, 0xD0, 0xDE, 0x26, 0x1C, 0x76};
+    ASSERT_EQ(check_crc(answer).status, CrcStatus::bad);
+    ASSERT_EQ(check_crc(std::span(answer).subspan(16, 4)).status, CrcStatus::ok);
+    Batched bus;
+    bus.chunk({kRead6, kAnswer6}).chunk({read, answer, kRead1});
+    const auto& r = bus.run();
+    ASSERT_EQ(r.size(), 5U);
+    EXPECT_EQ(r[2].frame.bytes, read);
+    expect_damaged(r[3], answer);
+    EXPECT_EQ(r[4].frame.bytes, kRead1);
+}
+
+TEST(DamagedFrameReadings, AFrameNothingFollowsInsideADamagedRequestsReadingIsKept) {
+    // The answer to slave 20's write of 54 coils, its address hit (14 -> 10), then slave
+    // 1's read and its answer, hit too: the answer and the read also read as a write of 54
+    // coils by slave 16, whose byte count (07) fits. Nothing that starts a frame follows
+    // the read, but it is no answer's bytes: it stays a frame.
+    const test::Bytes write = test::with_crc(
+        {0x14, 0x0F, 0x03, 0xC9, 0x00, 0x36, 0x07, 0xD9, 0x47, 0x27, 0x84, 0xB3, 0xDF, 0xCA});
+    test::Bytes written = answer_to_write(write);
+    written[0] = 0x10;
+    test::Bytes answer1 = test::with_crc({0x01, 0x03, 0x02, 0x6B, 0x5F});
+    answer1[3] ^= 0x04;
+    const test::Bytes write16 = test::with_crc({0x10, 0x06, 0x01, 0xF0, 0x4F, 0x90});
+    Batched bus;
+    bus.chunk({kRead6, kAnswer6}).chunk({write}).chunk({written, kRead1, answer1, write16});
+    const auto& r = bus.run();
+    ASSERT_EQ(r.size(), 7U);
+    expect_damaged(r[3], written);
+    EXPECT_EQ(r[4].frame.bytes, kRead1);
+    EXPECT_EQ(r[4].frame.cls, RecordClass::frame);
+    expect_damaged(r[5], answer1);
+}
+
 TEST(DamagedFrameReadings, AReadingEndsWhereTwoDamagedFramesThatEndAtTheNextFrameBegin) {
     // 1A 18 03 01 CD 10 reads as a request to slave 26 (Read FIFO Queue); slave 24's read
     // after the 1A, its quantity hit (0011 -> 1011), ends where its damaged answer begins,

@@ -1052,7 +1052,10 @@ std::optional<bool> Framer::found_by_chance(const Attempt& there, std::size_t at
         options_.rules->function(bytes_[at], function).request_length.kind == LengthRule::Kind::search;
     const bool weak = there.delimiter == Delimiter::crc_search ||
                       there.crc.status == CrcStatus::swapped || unknown_exception;
-    if (weak && seen_valid_frame_ && !(stopped_ && at_end)) {
+    // So is any frame that nothing follows, inside such a reading that its fields make
+    // likely (the awaited answer, as long as asked).
+    const bool stranded = after == Follows::nothing;
+    if ((weak || stranded) && seen_valid_frame_ && !(stopped_ && at_end)) {
         // Whether the next frame or a proven silence begins at `from`; std::nullopt when
         // bytes still to come decide.
         const auto at_frame = [&](std::size_t from) -> std::optional<bool> {
@@ -1062,7 +1065,9 @@ std::optional<bool> Framer::found_by_chance(const Attempt& there, std::size_t at
             if (next.outcome == Outcome::need_more) return std::nullopt;
             return next.outcome == Outcome::frame && next.crc.status == CrcStatus::ok;
         };
-        const std::size_t damaged = damaged_frame(pos_, bytes_.size(), false, 0, at_end).length;
+        const DamagedFit fit = damaged_frame(pos_, bytes_.size(), false, 0, at_end);
+        const bool awaited_answer = fit.reading == Reading::response && fit.likely >= 2;
+        const std::size_t damaged = weak || awaited_answer ? fit.length : 0;
         const std::size_t damaged_end = pos_ + damaged;
         if (damaged != 0 && damaged_end >= end) {
             const std::optional<bool> next = at_frame(damaged_end);
