@@ -706,6 +706,29 @@ TEST(DamagedFrameReadings, AFrameNothingFollowsInsideADamagedRequestsReadingIsKe
     expect_damaged(r[5], answer1);
 }
 
+TEST(DamagedFrameReadings, AFrameByCrcAcrossTwoDamagedFramesIsByChance) {
+    // Slave 10's write of a register, its address hit (001D -> 000D), and its echo, its
+    // slave's address hit (0A -> 0E): 41 89 E7 0E 06, across the two, is an exception to
+    // function 09 whose CRC, its bytes swapped, is right by chance. The two end where the
+    // next frame begins.
+    test::Bytes write = test::with_crc({0x0A, 0x06, 0x00, 0x1D, 0xC2, 0x41});
+    test::Bytes echo = write;
+    write[3] ^= 0x10;
+    echo[0] = 0x0E;
+    const test::Bytes exception = test::with_crc({0x0E, 0x83, 0x04});
+    const test::Bytes read14 = test::with_crc({0x0E, 0x03, 0x01, 0x03, 0x00, 0x1F});
+    const test::Bytes read16 = test::with_crc({0x10, 0x01, 0x00, 0xF2, 0x00, 0x17});
+    const test::Bytes both = test::concat({write, echo});
+    ASSERT_EQ(check_crc(std::span(both).subspan(5, 5)).status, CrcStatus::swapped);
+    Batched bus;
+    bus.chunk({kRead6, kAnswer6}).chunk({read14, exception}).chunk({write, echo, read16});
+    const auto& r = bus.run();
+    ASSERT_EQ(r.size(), 7U);
+    expect_damaged(r[4], write);
+    expect_damaged(r[5], echo);
+    EXPECT_EQ(r[6].frame.bytes, read16);
+}
+
 TEST(DamagedFrameReadings, AReadingEndsWhereTwoDamagedFramesThatEndAtTheNextFrameBegin) {
     // 1A 18 03 01 CD 10 reads as a request to slave 26 (Read FIFO Queue); slave 24's read
     // after the 1A, its quantity hit (0011 -> 1011), ends where its damaged answer begins,

@@ -1069,13 +1069,16 @@ std::optional<bool> Framer::found_by_chance(const Attempt& there, std::size_t at
         const bool awaited_answer = fit.reading == Reading::response && fit.likely >= 2;
         const std::size_t damaged = weak || awaited_answer ? fit.length : 0;
         const std::size_t damaged_end = pos_ + damaged;
-        if (damaged != 0 && damaged_end >= end) {
-            const std::optional<bool> next = at_frame(damaged_end);
+        if (damaged != 0) {
+            const std::optional<bool> next =
+                damaged_end >= end ? at_frame(damaged_end) : std::optional(false);
             if (next.value_or(false)) return true;
+            // Or inside that reading and the next damaged frame's, across the two.
             const std::size_t second =
                 damaged_frame(damaged_end, bytes_.size(), false, 0, at_end).length;
-            const std::optional<bool> after_second =
-                second != 0 ? at_frame(damaged_end + second) : std::optional(false);
+            const std::optional<bool> after_second = second != 0 && damaged_end + second >= end
+                                                         ? at_frame(damaged_end + second)
+                                                         : std::optional(false);
             if (after_second.value_or(false)) return true;
             pending = pending || !next || !after_second;
         }
