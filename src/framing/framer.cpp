@@ -650,8 +650,9 @@ void Framer::decide(bool at_end) {
         if (waiting) {
             // Long garbage must not grow the buffer without end: what lies a whole ADU
             // before the undecided position can no longer be part of a frame.
-            if (resync - pos_ > 16 * kMaxAdu)
+            if (resync - pos_ > 16 * kMaxAdu) {
                 classify_unframed(pos_, resync - kMaxAdu, false, at_end);
+            }
             // After what that emitted, which forgets the hint.
             scan_hint_ = resync;
             break;
@@ -945,6 +946,7 @@ Framer::DamagedFit Framer::damaged_frame(std::size_t start, std::size_t to,
             head[6] != bytes_for(word)) {
             from_quantity = 9 + bytes_for(word);
         }
+        // (Not for an answer whose address already argues against it: that is two hits.)
         if (role == Role::response && likely > 0 && asked != 0 && !counted_as_asked) {
             from_quantity = 5 + bytes_for(asked);
         }

@@ -205,6 +205,9 @@ class Framer {
     void add_char_error_note(Frame& frame, std::size_t at, std::size_t length) const;
     // Where in the frame at `at` the input's clock went back, if anywhere.
     void add_time_jump_notes(Frame& frame, std::size_t at, std::size_t length) const;
+    // What a valid frame shows of its device's ways: an answer's byte count for the
+    // quantity asked (answer_counts_), a request's word outside its function's range
+    // (disallowed_words_seen_).
     void remember_answer_count(const Frame& answer);
     void remember_request_word(const Frame& request);
     // The silence measured before byte `at`: kNoTime inside a chunk.
