@@ -36,6 +36,12 @@ constexpr std::size_t kMaxNoise = 3;
 // or proven silence for where it ends to count (a request and its answer, both hit).
 constexpr int kMaxChain = 2;
 
+// A request's word after its address (a quantity, a coil's value): its bytes 4 and 5, of
+// at least 6.
+std::uint16_t word_of(std::span<const std::uint8_t> request) {
+    return static_cast<std::uint16_t>((request[4] << 8U) | request[5]);
+}
+
 // A slave, a function and the quantity asked, as the key of Framer::answer_counts_.
 std::uint32_t answer_count_key(std::uint8_t slave, std::uint8_t function, unsigned asked) {
     return (std::uint32_t{slave} << 24U) | (std::uint32_t{function} << 16U) | (asked & 0xFFFFU);
@@ -861,7 +867,7 @@ Framer::DamagedFit Framer::damaged_frame(std::size_t start, std::size_t to,
     const FunctionSpec& spec = options_.rules->function(head[0], head[1]);
     if (spec.request_length.kind == LengthRule::Kind::search) return chosen;
     const bool reads = spec.access == DataAccess::read && spec.max_quantity != 0;
-    const auto word = static_cast<std::uint16_t>(head.size() < 6 ? 0 : (head[4] << 8U) | head[5]);
+    const std::uint16_t word = head.size() < 6 ? 0 : word_of(head);
     const auto one_bit_from_allowed = [&] {
         for (unsigned bit = 0; bit < 16; ++bit) {
             if (spec.allows_request_word(static_cast<std::uint16_t>(word ^ (1U << bit)))) return true;
@@ -896,7 +902,7 @@ Framer::DamagedFit Framer::damaged_frame(std::size_t start, std::size_t to,
     unsigned asked = 0;
     if (reads && !exception && awaited_function && counted &&
         awaited->request.size() >= 6) {
-        asked = (unsigned{awaited->request[4]} << 8U) | awaited->request[5];
+        asked = word_of(awaited->request);
         if (asked > spec.max_quantity) asked = 0;
     }
     // As many bytes as asked, or as the asked slave's last valid answer to as many gave.
@@ -1321,7 +1327,7 @@ void Framer::remember_answer_count(const Frame& answer) {
             LengthRule::Kind::counted) {
         return;
     }
-    const unsigned asked = (unsigned{awaited->request[4]} << 8U) | awaited->request[5];
+    const unsigned asked = word_of(awaited->request);
     answer_counts_[answer_count_key(head[0], head[1], asked)] = head[2];
 }
 
@@ -1329,8 +1335,7 @@ void Framer::remember_request_word(const Frame& request) {
     const auto head = std::span(request.bytes);
     const FunctionSpec& spec = options_.rules->function(head[0], head[1]);
     if (head.size() < 8 || spec.request_word == RequestWord::none) return;
-    const auto word = static_cast<std::uint16_t>((head[4] << 8U) | head[5]);
-    if (!spec.allows_request_word(word)) disallowed_words_seen_.set(slave_function(head));
+    if (!spec.allows_request_word(word_of(head))) disallowed_words_seen_.set(slave_function(head));
 }
 
 void Framer::add_time_jump_notes(Frame& frame, std::size_t at, std::size_t length) const {
