@@ -286,6 +286,13 @@ struct Batched {
     test::Harness h;
 };
 
+// A framer whose input times every byte (a logic analyser), as its batching shows.
+FramerOptions every_byte_timed() {
+    FramerOptions o;
+    o.batching.kind = Batching::Kind::per_byte;
+    return o;
+}
+
 // The frame with its CRC's last byte hit.
 test::Bytes damaged(test::Bytes frame) {
     frame.back() ^= 0x10;
@@ -771,6 +778,94 @@ TEST(DamagedFrameReadings, AnAnswerIsAsLongAsTheSlavesLastAnswerToAsMany) {
     expect_damaged(r[5], answer);
     EXPECT_EQ(r[5].frame.reading, Reading::response);
     EXPECT_EQ(r.back().frame.bytes, written);
+}
+
+TEST(DamagedFrameReadings, AnAnswerOfTheSlavesOwnCountFromAnotherSlaveIsUnlikely) {
+    // Slave 1 answers one register whatever is asked, and leaves a read of 2 unanswered.
+    // Slave 14's read after it, its quantity hit (0003 -> 1003), also reads as an answer of
+    // 2 bytes (0E 03 02 9B 10 03 xx), slave 1's own count, but from slave 14, three bits
+    // from 1; a junk byte would end it. Every byte is timed, and the read ends at a silence.
+    const test::Bytes answer1 = test::with_crc({0x01, 0x03, 0x02, 0x00, 0x07});
+    test::Bytes read = test::with_crc({0x0E, 0x03, 0x02, 0x9B, 0x00, 0x03});
+    read[4] = 0x10;
+    const test::Bytes answer =
+        test::with_crc({0x0E, 0x03, 0x06, 0x5D, 0x15, 0x0E, 0xB3, 0xF3, 0x8B});
+    test::Line line;
+    for (const test::Bytes& frame : {kRead1, answer1, kRead6, kAnswer6, kRead1, read, answer}) {
+        line.send_per_byte(frame).silence(5);
+    }
+    test::Harness h(every_byte_timed());
+    const auto& r = h.run(line.chunks());
+    ASSERT_EQ(r.size(), 7U);
+    expect_damaged(r[5], read);
+    EXPECT_EQ(r[5].frame.reading, Reading::request);
+    EXPECT_EQ(r[6].frame.bytes, answer);
+}
+
+TEST(DamagedFrameReadings, AnAnswerAsLongAsARequestShowsNoWordOfTheDevice) {
+    // Slave 9's answer of 3 bytes of coils, whose read was not heard, is as long as a
+    // request, and as one it would ask for C323 coils, more than a read may. Later slave
+    // 13 is asked for 25 coils, its address hit (0D -> 1D), and answers, its address hit
+    // too (0D -> 09): 09 01 04 FA 21 3E F7 06 also reads as slave 9's read of 213E coils,
+    // a bit from one allowed, and a junk byte would end it. Every byte is timed, and the
+    // answer ends at a silence.
+    const test::Bytes unasked = test::with_crc({0x09, 0x01, 0x03, 0xC3, 0x23, 0xED});
+    test::Bytes read = test::with_crc({0x0D, 0x01, 0x03, 0x8A, 0x00, 0x19});
+    read[0] = 0x1D;
+    test::Bytes answer = test::with_crc({0x0D, 0x01, 0x04, 0xFA, 0x21, 0x3E, 0xF7});
+    answer[0] = 0x09;
+    test::Line line;
+    for (const test::Bytes& frame : {kRead6, kAnswer6, unasked, kRead1, kAnswer1, read, answer}) {
+        line.send_per_byte(frame).silence(5);
+    }
+    test::Harness h(every_byte_timed());
+    const auto& r = h.run(line.chunks());
+    ASSERT_EQ(r.size(), 7U);
+    expect_damaged(r[6], answer);
+    EXPECT_EQ(r[6].frame.reading, Reading::response);
+}
+
+TEST(DamagedFrameReadings, AnAnswerOfRegistersWithAnOddByteCountIsUnlikely) {
+    // Slave 11 leaves a read of 8 registers unanswered; the master's next read to it, its
+    // quantity hit (0008 -> 1008), also reads as slave 11's answer of 1 byte (0B 03 01 6A
+    // 10 08), which two junk bytes would end. Every byte is timed, and the read ends at a
+    // silence.
+    const test::Bytes unanswered = test::with_crc({0x0B, 0x03, 0x01, 0xCE, 0x00, 0x08});
+    test::Bytes read = test::with_crc({0x0B, 0x03, 0x01, 0x6A, 0x00, 0x08});
+    read[4] = 0x10;
+    test::Bytes data = {0x0B, 0x03, 0x10};
+    for (std::uint8_t i = 0; i < 16; ++i) data.push_back(static_cast<std::uint8_t>(0x61 + i));
+    const test::Bytes answer = test::with_crc(data);
+    test::Line line;
+    for (const test::Bytes& frame : {kRead6, kAnswer6, unanswered, read, answer}) {
+        line.send_per_byte(frame).silence(5);
+    }
+    test::Harness h(every_byte_timed());
+    const auto& r = h.run(line.chunks());
+    ASSERT_EQ(r.size(), 5U);
+    expect_damaged(r[3], read);
+    EXPECT_EQ(r[3].frame.reading, Reading::request);
+}
+
+TEST(DamagedFrameReadings, AWriteWhoseCountAndQuantityAreTwoBitsApartIsUnlikely) {
+    // Slave 6's answer to a write of 6 registers, its address hit (06 -> 02), is followed by
+    // a junk byte before the silence. With it, 02 10 03 94 00 06 00 14 FF also reads as a
+    // write of 6 registers to slave 2 that counts 0 bytes of them, where a single hit
+    // leaves 12 (0C) or a quantity that gives 0 (none). Every byte is timed.
+    const test::Bytes write =
+        test::with_crc({0x06, 0x10, 0x03, 0x94, 0x00, 0x06, 0x0C, 0x78, 0x96, 0x70, 0x59, 0x94,
+                        0x19, 0x82, 0x7A, 0x77, 0xAA, 0x98, 0xDC});
+    test::Bytes answer = answer_to_write(write);
+    answer[0] = 0x02;
+    test::Line line;
+    for (const test::Bytes& frame : {kRead6, kAnswer6, write}) line.send_per_byte(frame).silence(5);
+    line.send_per_byte(answer).send_per_byte({0xFF}).silence(5).send_per_byte(kRead1);
+    test::Harness h(every_byte_timed());
+    const auto& r = h.run(line.chunks());
+    ASSERT_EQ(r.size(), 6U);
+    expect_damaged(r[3], answer);
+    EXPECT_EQ(r[3].frame.reading, Reading::response);
+    EXPECT_EQ(r[4].frame.bytes, test::Bytes{0xFF});
 }
 
 // The flow meter of captures/realdata (a real line whose slave pauses a bit between

@@ -859,11 +859,12 @@ Framer::DamagedFit Framer::damaged_frame(std::size_t start, std::size_t to,
     //   a request: its word (a quantity, a coil's FF00 or 0000) as allowed 2, one bit
     //     from it 0, further -1, none to check 1; one answered with data sent to everyone 0;
     //   an answer: an echo or the answer to a write of several that repeats the awaited
-    //     request's first six bytes 3; awaited from this slave, or with the byte count
-    //     asked, 2; an echo or the answer to a write of several, of the function awaited
-    //     from another slave, as its word; another answer of that function from an
-    //     address one bit from the asked slave's 1 (the address may be the byte that took
-    //     the hit); from any other address, or awaited by none, 0.
+    //     request's first six bytes 3; awaited from this slave, or, from it or an address
+    //     one bit from it, with the byte count asked, 2; an echo or the answer to a write
+    //     of several, of the function awaited from another slave, as its word; another
+    //     answer of that function from an address one bit from the asked slave's 1 (the
+    //     address may be the byte that took the hit); from any other address, or awaited
+    //     by none, 0; with an odd count of registers, at most 0.
     const FunctionSpec& spec = options_.rules->function(head[0], head[1]);
     if (spec.request_length.kind == LengthRule::Kind::search) return chosen;
     const bool reads = spec.access == DataAccess::read && spec.max_quantity != 0;
@@ -905,29 +906,38 @@ Framer::DamagedFit Framer::damaged_frame(std::size_t start, std::size_t to,
         asked = word_of(awaited->request);
         if (asked > spec.max_quantity) asked = 0;
     }
-    // As many bytes as asked, or as the asked slave's last valid answer to as many gave.
+    // Another slave's address one bit from the awaited one's: the address may have taken
+    // the hit (further, that takes more than one).
+    const bool address_one_bit_off =
+        awaited != nullptr && std::popcount(static_cast<unsigned>(awaited->slave ^ head[0])) == 1;
+    // As many bytes as asked, or as the asked slave's last valid answer to as many gave,
+    // from that slave or an address one bit from it.
     const auto counted_as_before = [&] {
         const auto before = answer_counts_.find(answer_count_key(awaited->slave, head[1], asked));
         return before != answer_counts_.end() && before->second == head[2];
     };
-    const bool counted_as_asked =
-        asked != 0 && (head[2] == bytes_for(asked) || counted_as_before());
+    const bool counted_as_asked = asked != 0 &&
+                                  (awaited->slave == head[0] || address_one_bit_off) &&
+                                  (head[2] == bytes_for(asked) || counted_as_before());
     const bool answer_awaited = awaited_function && awaited->slave == head[0];
     // An echo, or the answer to a write of several, that repeats the awaited request's
     // first six bytes to the bit: 1 in 2^32 by chance.
     const bool repeats_request = answer_awaited && !exception && spec.answer_repeats_word &&
                                  head.size() >= 6 && awaited->request.size() >= 6 &&
                                  std::ranges::equal(head.first(6), awaited->request.first(6));
-    // Another slave's address one bit from the awaited one's: the address may have taken
-    // the hit (further, that takes more than one).
-    const bool address_one_bit_off =
-        awaited != nullptr && std::popcount(static_cast<unsigned>(awaited->slave ^ head[0])) == 1;
-    const int response_likely = repeats_request                      ? 3
-                                : answer_awaited || counted_as_asked ? 2
-                                : awaited_function && !exception && spec.answer_repeats_word
-                                    ? word_likely
-                                : awaited_function && address_one_bit_off ? 1
-                                                                          : 0;
+    // As far as its address and function tell.
+    const int answer_likely = repeats_request                      ? 3
+                              : answer_awaited || counted_as_asked ? 2
+                              : awaited_function && !exception && spec.answer_repeats_word
+                                  ? word_likely
+                              : awaited_function && address_one_bit_off ? 1
+                                                                        : 0;
+    // Registers are answered two bytes each: an odd byte count is one bit from an even one
+    // (the asked quantity may then give the length), unless the slave has answered so before.
+    const bool odd_count_of_registers =
+        counted && !exception && !counted_as_asked && head[2] % 2 == 1 &&
+        (spec.table == DataTable::holding_registers || spec.table == DataTable::input_registers);
+    const int response_likely = odd_count_of_registers ? std::min(answer_likely, 0) : answer_likely;
     // An address, and a function, that valid frames have shown on this bus are likelier
     // than ones they have not (a junk byte read as an address, a data byte as a function).
     const int seen_on_bus = (slaves_seen_.test(head[0]) ? 1 : 0) +
@@ -936,6 +946,14 @@ Framer::DamagedFit Framer::damaged_frame(std::size_t start, std::size_t to,
     // are readings, and where they end decides (a write's own quantity, a read answer's
     // request's); not a write's quantity where this slave's answer to it is awaited (the
     // bytes are likelier that answer than a second write).
+    const auto count_a_bit_from_word = [&] {
+        if (std::popcount(static_cast<unsigned>(head[6] ^ bytes_for(word))) == 1) return true;
+        for (unsigned bit = 0; bit < 16; ++bit) {
+            const auto quantity = static_cast<std::uint16_t>(word ^ (1U << bit));
+            if (spec.allows_request_word(quantity) && bytes_for(quantity) == head[6]) return true;
+        }
+        return false;
+    };
     struct Candidate {
         Role role;
         FrameLength length;
@@ -953,10 +971,13 @@ Framer::DamagedFit Framer::damaged_frame(std::size_t start, std::size_t to,
             from_quantity = 9 + bytes_for(word);
         }
         // (Not for an answer whose address already argues against it: that is two hits.)
-        if (role == Role::response && likely > 0 && asked != 0 && !counted_as_asked) {
+        if (role == Role::response && answer_likely > 0 && asked != 0 && !counted_as_asked) {
             from_quantity = 5 + bytes_for(asked);
         }
-        if (from_quantity) likely = 1;
+        if (from_quantity) likely = std::min(likely, 1);
+        // A byte count more than a bit from the quantity's, and a quantity more than a bit
+        // from any allowed one that gives the count, took two hits.
+        if (from_quantity && role == Role::request && !count_a_bit_from_word()) likely = -1;
         candidates[count++] = {role, lengths.of(role), likely};
         // The quantity's length only where it ends at a boundary and nothing likelier does.
         if (from_quantity && !(role == Role::request && answer_awaited)) {
@@ -1335,6 +1356,13 @@ void Framer::remember_request_word(const Frame& request) {
     const auto head = std::span(request.bytes);
     const FunctionSpec& spec = options_.rules->function(head[0], head[1]);
     if (head.size() < 8 || spec.request_word == RequestWord::none) return;
+    // Bytes that read as well as an answer with a byte count (an answer of 3 bytes of coils
+    // is as long as a request) show no word: the transaction may have been that answer.
+    const FrameLength as_answer = options_.rules->frame_lengths(head).response;
+    if (!spec.answer_repeats_word && as_answer.kind == FrameLength::Kind::fixed &&
+        as_answer.bytes == head.size()) {
+        return;
+    }
     if (!spec.allows_request_word(word_of(head))) disallowed_words_seen_.set(slave_function(head));
 }
 
