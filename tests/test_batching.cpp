@@ -868,6 +868,29 @@ TEST(DamagedFrameReadings, AWriteWhoseCountAndQuantityAreTwoBitsApartIsUnlikely)
     EXPECT_EQ(r[4].frame.bytes, test::Bytes{0xFF});
 }
 
+TEST(DamagedFrameReadings, AFrameByCrcInsideADamagedWriteBetweenTwoSilencesIsByChance) {
+    // Slave 23's write of 61 coils, its quantity hit (003D -> 002D), holds 2D 08 33 FD 0F
+    // 8A FD 44, a diagnostics request whose CRC matches by chance. Its byte count (8, as 61
+    // coils take) still gives its length, one bit from the quantity's (6). Every byte is
+    // timed: the write lies between two silences, none inside it.
+    test::Bytes write = test::with_crc(
+        {0x17, 0x0F, 0x02, 0xCA, 0x00, 0x3D, 0x08, 0x33, 0xFD, 0x0F, 0x8A, 0xFD, 0x44, 0xB2, 0x22});
+    write[5] = 0x2D;
+    const test::Bytes inside(write.begin() + 5, write.begin() + 13);
+    ASSERT_EQ(test::with_crc(test::Bytes(inside.begin(), inside.begin() + 6)), inside);
+    const test::Bytes answer = test::with_crc({0x17, 0x0F, 0x02, 0xCA, 0x00, 0x3D});
+    test::Line line;
+    for (const test::Bytes& frame : {kRead6, kAnswer6, write, answer}) {
+        line.send_per_byte(frame).silence(5);
+    }
+    test::Harness h(every_byte_timed());
+    const auto& r = h.run(line.chunks());
+    ASSERT_EQ(r.size(), 4U);
+    expect_damaged(r[2], write);
+    EXPECT_EQ(r[2].frame.reading, Reading::request);
+    EXPECT_EQ(r[3].frame.bytes, answer);
+}
+
 // The flow meter of captures/realdata (a real line whose slave pauses a bit between
 // characters), handed over by a 16550 UART's FIFO, with a bit flipped in every third
 // frame where its function code and byte count survive: each frame one record at its

@@ -1132,8 +1132,11 @@ std::optional<bool> Framer::found_by_chance(const Attempt& there, std::size_t at
         }
     }
     // Only a reading that chance rarely gives: the next frame's start is not known yet.
+    // Where every silence shows, any its fields allow: its bytes, between two silences and
+    // none inside, are one frame.
     const DamagedFit fit = damaged_frame(pos_, bytes_.size(), false, kMaxChain, at_end);
-    const std::size_t damaged = fit.likely >= 2 ? fit.length : 0;
+    const int least_likely = options_.batching.hold == 0 ? 1 : 2;
+    const std::size_t damaged = fit.likely >= least_likely ? fit.length : 0;
     if (damaged == 0 || pos_ + damaged <= at) return false;
     const std::size_t damaged_end = pos_ + damaged;
     if (damaged_end == bytes_.size()) {
