@@ -891,6 +891,33 @@ TEST(DamagedFrameReadings, AFrameByCrcInsideADamagedWriteBetweenTwoSilencesIsByC
     EXPECT_EQ(r[3].frame.bytes, answer);
 }
 
+TEST(DamagedFrameReadings, TheAnswerToAWriteAfterItsDamagedWriteIsKept) {
+    // Slave 4's answer of 6 registers, a data byte hit, is followed by slave 21's write of
+    // 16 registers whose byte count took a hit (20 -> 30): read by that count, the write
+    // runs 16 bytes past its end, over slave 21's answer and slave 1's read (its CRC hit),
+    // to slave 1's answer. Slave 21's answer, a frame of known length that no frame
+    // follows, is the true one, not a chance match across the two damaged frames.
+    const test::Bytes read4 = test::with_crc({0x04, 0x03, 0x00, 0x01, 0x00, 0x06});
+    test::Bytes answer4 = test::with_crc(
+        {0x04, 0x03, 0x0C, 0x6F, 0x15, 0xB5, 0x31, 0x0B, 0x35, 0x9A, 0x68, 0xC0, 0x45, 0x71, 0x85});
+    answer4[14] ^= 0x04;
+    test::Bytes write = {0x15, 0x10, 0x03, 0x5A, 0x00, 0x10, 0x20};
+    for (std::uint8_t i = 0; i < 32; ++i) write.push_back(static_cast<std::uint8_t>(0x37 + 5 * i));
+    write = test::with_crc(write);
+    const test::Bytes written = answer_to_write(write);
+    write[6] = 0x30;
+    const test::Bytes read1 = damaged(test::with_crc({0x01, 0x03, 0x00, 0x00, 0x00, 0x01}));
+    const test::Bytes answer1 = test::with_crc({0x01, 0x03, 0x02, 0xB4, 0xC7});
+    Batched bus;
+    bus.chunk({kRead6, kAnswer6}).chunk({read4, answer4, write, written, read1, answer1});
+    const auto& r = bus.run();
+    const auto found =
+        std::ranges::find_if(r, [&](const Record& x) { return x.frame.bytes == written; });
+    ASSERT_NE(found, r.end()) << "the answer to the write is not a record of its own";
+    EXPECT_EQ(found->frame.cls, RecordClass::frame);
+    EXPECT_EQ(r.back().frame.bytes, answer1);
+}
+
 // The flow meter of captures/realdata (a real line whose slave pauses a bit between
 // characters), handed over by a 16550 UART's FIFO, with a bit flipped in every third
 // frame where its function code and byte count survive: each frame one record at its

@@ -1102,9 +1102,11 @@ std::optional<bool> Framer::found_by_chance(const Attempt& there, std::size_t at
             const std::optional<bool> next =
                 damaged_end >= end ? at_frame(damaged_end) : std::optional(false);
             if (next.value_or(false)) return true;
-            // Or inside that reading and the next damaged frame's, across the two.
+            // Or, found by its CRC alone, inside that reading and the next damaged frame's,
+            // across the two (a frame of known length nothing follows, there, may be the
+            // true one that a damaged frame of lost length runs up to).
             const std::size_t second =
-                damaged_frame(damaged_end, bytes_.size(), false, 0, at_end).length;
+                weak ? damaged_frame(damaged_end, bytes_.size(), false, 0, at_end).length : 0;
             const std::optional<bool> after_second = second != 0 && damaged_end + second >= end
                                                          ? at_frame(damaged_end + second)
                                                          : std::optional(false);
