@@ -286,11 +286,15 @@ struct Batched {
     test::Harness h;
 };
 
-// A framer whose input times every byte (a logic analyser), as its batching shows.
-FramerOptions every_byte_timed() {
+// The records of `frames` sent one after another with every byte timed (a logic
+// analyser, as the input's batching shows), 5 characters of silence after each.
+std::vector<Record> every_byte_timed(std::initializer_list<test::Bytes> frames) {
+    test::Line line;
+    for (const test::Bytes& frame : frames) line.send_per_byte(frame).silence(5);
     FramerOptions o;
     o.batching.kind = Batching::Kind::per_byte;
-    return o;
+    test::Harness h(o);
+    return h.run(line.chunks());
 }
 
 // The frame with its CRC's last byte hit.
@@ -790,12 +794,7 @@ TEST(DamagedFrameReadings, AnAnswerOfTheSlavesOwnCountFromAnotherSlaveIsUnlikely
     read[4] = 0x10;
     const test::Bytes answer =
         test::with_crc({0x0E, 0x03, 0x06, 0x5D, 0x15, 0x0E, 0xB3, 0xF3, 0x8B});
-    test::Line line;
-    for (const test::Bytes& frame : {kRead1, answer1, kRead6, kAnswer6, kRead1, read, answer}) {
-        line.send_per_byte(frame).silence(5);
-    }
-    test::Harness h(every_byte_timed());
-    const auto& r = h.run(line.chunks());
+    const auto r = every_byte_timed({kRead1, answer1, kRead6, kAnswer6, kRead1, read, answer});
     ASSERT_EQ(r.size(), 7U);
     expect_damaged(r[5], read);
     EXPECT_EQ(r[5].frame.reading, Reading::request);
@@ -814,12 +813,7 @@ TEST(DamagedFrameReadings, AnAnswerAsLongAsARequestShowsNoWordOfTheDevice) {
     read[0] = 0x1D;
     test::Bytes answer = test::with_crc({0x0D, 0x01, 0x04, 0xFA, 0x21, 0x3E, 0xF7});
     answer[0] = 0x09;
-    test::Line line;
-    for (const test::Bytes& frame : {kRead6, kAnswer6, unasked, kRead1, kAnswer1, read, answer}) {
-        line.send_per_byte(frame).silence(5);
-    }
-    test::Harness h(every_byte_timed());
-    const auto& r = h.run(line.chunks());
+    const auto r = every_byte_timed({kRead6, kAnswer6, unasked, kRead1, kAnswer1, read, answer});
     ASSERT_EQ(r.size(), 7U);
     expect_damaged(r[6], answer);
     EXPECT_EQ(r[6].frame.reading, Reading::response);
@@ -836,12 +830,7 @@ TEST(DamagedFrameReadings, AnAnswerOfRegistersWithAnOddByteCountIsUnlikely) {
     test::Bytes data = {0x0B, 0x03, 0x10};
     for (std::uint8_t i = 0; i < 16; ++i) data.push_back(static_cast<std::uint8_t>(0x61 + i));
     const test::Bytes answer = test::with_crc(data);
-    test::Line line;
-    for (const test::Bytes& frame : {kRead6, kAnswer6, unanswered, read, answer}) {
-        line.send_per_byte(frame).silence(5);
-    }
-    test::Harness h(every_byte_timed());
-    const auto& r = h.run(line.chunks());
+    const auto r = every_byte_timed({kRead6, kAnswer6, unanswered, read, answer});
     ASSERT_EQ(r.size(), 5U);
     expect_damaged(r[3], read);
     EXPECT_EQ(r[3].frame.reading, Reading::request);
@@ -857,11 +846,8 @@ TEST(DamagedFrameReadings, AWriteWhoseCountAndQuantityAreTwoBitsApartIsUnlikely)
                         0x19, 0x82, 0x7A, 0x77, 0xAA, 0x98, 0xDC});
     test::Bytes answer = answer_to_write(write);
     answer[0] = 0x02;
-    test::Line line;
-    for (const test::Bytes& frame : {kRead6, kAnswer6, write}) line.send_per_byte(frame).silence(5);
-    line.send_per_byte(answer).send_per_byte({0xFF}).silence(5).send_per_byte(kRead1);
-    test::Harness h(every_byte_timed());
-    const auto& r = h.run(line.chunks());
+    const auto r =
+        every_byte_timed({kRead6, kAnswer6, write, test::concat({answer, {0xFF}}), kRead1});
     ASSERT_EQ(r.size(), 6U);
     expect_damaged(r[3], answer);
     EXPECT_EQ(r[3].frame.reading, Reading::response);
@@ -879,12 +865,7 @@ TEST(DamagedFrameReadings, AFrameByCrcInsideADamagedWriteBetweenTwoSilencesIsByC
     const test::Bytes inside(write.begin() + 5, write.begin() + 13);
     ASSERT_EQ(test::with_crc(test::Bytes(inside.begin(), inside.begin() + 6)), inside);
     const test::Bytes answer = test::with_crc({0x17, 0x0F, 0x02, 0xCA, 0x00, 0x3D});
-    test::Line line;
-    for (const test::Bytes& frame : {kRead6, kAnswer6, write, answer}) {
-        line.send_per_byte(frame).silence(5);
-    }
-    test::Harness h(every_byte_timed());
-    const auto& r = h.run(line.chunks());
+    const auto r = every_byte_timed({kRead6, kAnswer6, write, answer});
     ASSERT_EQ(r.size(), 4U);
     expect_damaged(r[2], write);
     EXPECT_EQ(r[2].frame.reading, Reading::request);
