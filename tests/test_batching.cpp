@@ -899,6 +899,33 @@ TEST(DamagedFrameReadings, TheAnswerToAWriteAfterItsDamagedWriteIsKept) {
     EXPECT_EQ(r.back().frame.bytes, answer1);
 }
 
+TEST(DamagedFrameReadings, AFrameEndingIn00HandedOverApartFromItsLastByteIsWhole) {
+    // Slave 7's read of 116 registers ends in 00 (its CRC is 44 00), so its first 7 bytes
+    // check too, as an answer of 2 bytes. The adapter hands its last byte over in the next
+    // chunk, with the first bytes of the long answer: the pause between the chunks is the
+    // adapter's, no silence on the line.
+    const test::Bytes read = test::with_crc({0x07, 0x03, 0x02, 0xF0, 0x00, 0x74});
+    ASSERT_EQ(read.back(), 0x00);
+    test::Bytes data = {0x07, 0x03, 0xE8};
+    for (int i = 0; i < 232; ++i) data.push_back(static_cast<std::uint8_t>(i * 7 + 1));
+    const test::Bytes answer = test::with_crc(data);
+    Batched bus;
+    bus.chunk({kRead6, kAnswer6}).chunk({test::Bytes(read.begin(), read.end() - 1)});
+    // The 00 and the answer's first 4 bytes, then 12 bytes a chunk.
+    const test::Bytes rest = test::concat({{0x00}, answer, kRead1});
+    for (std::size_t at = 0; at < rest.size(); at += at == 0 ? 5 : 12) {
+        const std::size_t end = std::min(at + (at == 0 ? 5 : 12), rest.size());
+        bus.chunk({test::Bytes(rest.begin() + static_cast<std::ptrdiff_t>(at),
+                               rest.begin() + static_cast<std::ptrdiff_t>(end))});
+    }
+    const auto& r = bus.run();
+    ASSERT_EQ(r.size(), 5U);
+    EXPECT_EQ(r[2].frame.bytes, read);
+    EXPECT_EQ(r[2].frame.cls, RecordClass::frame);
+    EXPECT_EQ(r[2].frame.reading, Reading::request);
+    EXPECT_EQ(r[3].frame.bytes, answer);
+}
+
 // The flow meter of captures/realdata (a real line whose slave pauses a bit between
 // characters), handed over by a 16550 UART's FIFO, with a bit flipped in every third
 // frame where its function code and byte count survive: each frame one record at its

@@ -427,12 +427,18 @@ Framer::Attempt Framer::attempt_at(std::size_t at, bool at_end) const {
     bool searched = false;
     Attempt best;
     // A frame and the 00 after it check as a frame one byte longer (the CRC of a frame
-    // and its CRC's low byte is 00 and its high byte). Where the 00 starts the next frame,
-    // the shorter reading is the frame.
+    // and its CRC's low byte is 00 and its high byte). Where the 00 starts the next frame
+    // (or a silence the batching cannot have made) and nothing follows the longer reading,
+    // the shorter reading is the frame; bytes still to come may tell.
+    bool null_tail_pending = false;
     auto null_tail = [&](const Attempt& longer, const Attempt& shorter) {
-        return longer.length == shorter.length + 1 && bytes_[at + shorter.length] == 0 &&
-               what_follows(at + shorter.length, at_end) == Follows::boundary &&
-               what_follows(at + longer.length, at_end) != Follows::boundary;
+        if (longer.length != shorter.length + 1 || bytes_[at + shorter.length] != 0 ||
+            what_follows(at + shorter.length, at_end, true) != Follows::boundary) {
+            return false;
+        }
+        const Follows after_longer = what_follows(at + longer.length, at_end);
+        null_tail_pending = null_tail_pending || after_longer == Follows::unknown_yet;
+        return after_longer == Follows::nothing;
     };
     auto better = [&](const Attempt& a, const Attempt& b) {
         if (crc_rank(a.crc.status) != crc_rank(b.crc.status)) {
@@ -492,6 +498,7 @@ Framer::Attempt Framer::attempt_at(std::size_t at, bool at_end) const {
             best = candidate;
         }
     }
+    if (null_tail_pending) wait_for(avail + 1);
 
     if (wanted != 0) {
         none.outcome = Outcome::need_more;
@@ -579,9 +586,9 @@ bool Framer::holds_known_frame(std::size_t at, std::size_t n) const {
     return false;
 }
 
-Framer::Follows Framer::what_follows(std::size_t end, bool at_end) const {
+Framer::Follows Framer::what_follows(std::size_t end, bool at_end, bool proven) const {
     if (end == bytes_.size()) return at_end ? Follows::boundary : Follows::unknown_yet;
-    if (gap_before(end)) return Follows::boundary;
+    if (proven ? proven_gap_before(end) : gap_before(end)) return Follows::boundary;
     const std::size_t avail = bytes_.size() - end;
     if (avail < 2) return at_end ? Follows::nothing : Follows::unknown_yet;
     const auto head = std::span(bytes_).subspan(end, std::min(avail, kMaxAdu));

@@ -95,8 +95,9 @@ class Framer {
     // Whether a frame whose length its function code gives, with a right CRC, lies
     // within the `n` bytes after the first at `at`.
     [[nodiscard]] bool holds_known_frame(std::size_t at, std::size_t n) const;
-    // Whether a frame ending at `end` is followed by a silence, the end or another frame.
-    [[nodiscard]] Follows what_follows(std::size_t end, bool at_end) const;
+    // Whether a frame ending at `end` is followed by a silence (where `proven`, only one
+    // the batching cannot have made), the end or another frame.
+    [[nodiscard]] Follows what_follows(std::size_t end, bool at_end, bool proven = false) const;
     Attempt attempt_at(std::size_t at, bool at_end) const;
     // `frame` with what ends it: a silence, the input's end, or its length and CRC alone.
     [[nodiscard]] Attempt with_delimiter(Attempt frame, std::size_t at, bool at_end) const;
