@@ -926,6 +926,53 @@ TEST(DamagedFrameReadings, AFrameEndingIn00HandedOverApartFromItsLastByteIsWhole
     EXPECT_EQ(r[3].frame.bytes, answer);
 }
 
+TEST(DamagedFrameReadings, AWriteWhoseQuantityABitAwayGivesItsCountIsLikely) {
+    // Slave 14's write of 1 coil, the second alike, its quantity hit (0001 -> 1001): its
+    // byte count, 1, is what 1 coil takes. From its third byte, 03 01 10 01 01 08 52 E2
+    // also reads as slave 3's read of 264 coils (an allowed quantity), after two junk
+    // bytes, ending at the same silence. Every byte is timed.
+    const test::Bytes sent = test::with_crc({0x0E, 0x0F, 0x03, 0x01, 0x00, 0x01, 0x01, 0x08});
+    test::Bytes write = sent;
+    write[4] = 0x10;
+    const test::Bytes written = answer_to_write(sent);
+    const test::Bytes read3 = test::with_crc({0x03, 0x01, 0x00, 0x10, 0x00, 0x08});
+    const test::Bytes answer3 = test::with_crc({0x03, 0x01, 0x01, 0x5A});
+    const auto r = every_byte_timed({read3, answer3, sent, written, write, written});
+    ASSERT_EQ(r.size(), 6U);
+    expect_damaged(r[4], write);
+    EXPECT_EQ(r[4].frame.reading, Reading::request);
+}
+
+TEST(DamagedFrameReadings, TheAskedSlavesAnswerOfACountFarFromTheAskedIsUnlikely) {
+    // Slave 18 leaves a read of 28 registers unanswered; the master's next read to it, its
+    // quantity hit (0006 -> 1006), also reads as slave 18's answer of 2 bytes (12 03 02 85
+    // 10 06 D7), four bits from the 56 asked for, which a junk byte would end. Every byte
+    // is timed, and the read ends at a silence.
+    const test::Bytes unanswered = test::with_crc({0x12, 0x03, 0x00, 0xF9, 0x00, 0x1C});
+    test::Bytes read = test::with_crc({0x12, 0x03, 0x02, 0x85, 0x00, 0x06});
+    read[4] = 0x10;
+    const test::Bytes answer = test::with_crc(
+        {0x12, 0x03, 0x0C, 0xC9, 0xDE, 0x83, 0x30, 0x34, 0x0B, 0x7A, 0x26, 0xFF, 0xFC, 0xC4, 0x8C});
+    const auto r = every_byte_timed({kRead6, kAnswer6, unanswered, read, answer});
+    ASSERT_EQ(r.size(), 5U);
+    expect_damaged(r[3], read);
+    EXPECT_EQ(r[3].frame.reading, Reading::request);
+}
+
+TEST(DamagedFrameReadings, AnAnswerIsNotJudgedByTheQuantityOfARequestThatCameDamaged) {
+    // Slave 8 is asked for 28 coils, the quantity hit (001C -> 000C, 2 bytes' worth), and
+    // answers 4 bytes, its CRC hit. 08 01 04 D4 02 6B 13 94 also reads as a read of 619
+    // coils, which a junk byte would end. Every byte is timed, and the answer ends at a
+    // silence.
+    test::Bytes read = test::with_crc({0x08, 0x01, 0x03, 0x1A, 0x00, 0x1C});
+    read[5] = 0x0C;
+    const test::Bytes answer = damaged(test::with_crc({0x08, 0x01, 0x04, 0xD4, 0x02, 0x6B, 0x13}));
+    const auto r = every_byte_timed({kRead6, kAnswer6, read, answer, kRead1});
+    ASSERT_EQ(r.size(), 5U);
+    expect_damaged(r[3], answer);
+    EXPECT_EQ(r[3].frame.reading, Reading::response);
+}
+
 // The flow meter of captures/realdata (a real line whose slave pauses a bit between
 // characters), handed over by a 16550 UART's FIFO, with a bit flipped in every third
 // frame where its function code and byte count survive: each frame one record at its

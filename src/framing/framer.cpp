@@ -864,7 +864,8 @@ Framer::DamagedFit Framer::damaged_frame(std::size_t start, std::size_t to,
     // once in billions; 2: by evidence that chance rarely gives; 1: by what the reading
     // allows; 0: against it, by one bit error; -1: by more than one):
     //   a request: its word (a quantity, a coil's FF00 or 0000) as allowed 2, one bit
-    //     from it 0, further -1, none to check 1; one answered with data sent to everyone 0;
+    //     from it 0 (1 for a write where that allowed quantity gives its byte count),
+    //     further -1, none to check 1; one answered with data sent to everyone 0;
     //   an answer: an echo or the answer to a write of several that repeats the awaited
     //     request's first six bytes 3; awaited from this slave, or, from it or an address
     //     one bit from it, with the byte count asked, 2; an echo or the answer to a write
@@ -894,7 +895,26 @@ Framer::DamagedFit Framer::damaged_frame(std::size_t start, std::size_t to,
     // specification, 2.1), never a function whose answer carries data.
     const bool answered_with_data =
         spec.access != DataAccess::write && spec.answer == Answer::reply;
-    const int request_likely = head[0] == 0 && answered_with_data ? 0 : word_likely;
+    const auto bytes_for = [&](unsigned items) {
+        const bool bits =
+            spec.table == DataTable::coils || spec.table == DataTable::discrete_inputs;
+        return bits ? (items + 7) / 8 : 2 * items;
+    };
+    // A write of several whose byte count follows its quantity (bytes 6 on).
+    const bool counts_its_data = spec.request_length.kind == LengthRule::Kind::counted &&
+                                 spec.request_length.n == 6 && head.size() > 6;
+    // Its quantity, a bit from one allowed that gives its byte count: the hit was there.
+    const auto quantity_a_bit_from_count = [&] {
+        for (unsigned bit = 0; bit < 16; ++bit) {
+            const auto quantity = static_cast<std::uint16_t>(word ^ (1U << bit));
+            if (spec.allows_request_word(quantity) && bytes_for(quantity) == head[6]) return true;
+        }
+        return false;
+    };
+    const int request_likely = head[0] == 0 && answered_with_data ? 0
+                               : word_likely == 0 && counts_its_data && quantity_a_bit_from_count()
+                                   ? 1
+                                   : word_likely;
     const AwaitedAnswer* awaited =
         options_.expectation != nullptr ? options_.expectation->awaited(byte_end(start)) : nullptr;
     const bool exception = (head[1] & 0x80U) != 0;
@@ -902,10 +922,6 @@ Framer::DamagedFit Framer::damaged_frame(std::size_t start, std::size_t to,
     const bool counted = spec.response_length.kind == LengthRule::Kind::counted;
     const bool awaited_function = awaited != nullptr && awaited->function == (head[1] & 0x7FU) &&
                                   (exception || head[2] != 0 || !counted);
-    const auto bytes_for = [&](unsigned items) {
-        const bool bits = spec.table == DataTable::coils || spec.table == DataTable::discrete_inputs;
-        return bits ? (items + 7) / 8 : 2 * items;
-    };
     // The quantity the awaited request asked for, which gives its answer's byte count.
     unsigned asked = 0;
     if (reads && !exception && awaited_function && counted &&
@@ -954,12 +970,8 @@ Framer::DamagedFit Framer::damaged_frame(std::size_t start, std::size_t to,
     // request's); not a write's quantity where this slave's answer to it is awaited (the
     // bytes are likelier that answer than a second write).
     const auto count_a_bit_from_word = [&] {
-        if (std::popcount(static_cast<unsigned>(head[6] ^ bytes_for(word))) == 1) return true;
-        for (unsigned bit = 0; bit < 16; ++bit) {
-            const auto quantity = static_cast<std::uint16_t>(word ^ (1U << bit));
-            if (spec.allows_request_word(quantity) && bytes_for(quantity) == head[6]) return true;
-        }
-        return false;
+        return std::popcount(static_cast<unsigned>(head[6] ^ bytes_for(word))) == 1 ||
+               quantity_a_bit_from_count();
     };
     struct Candidate {
         Role role;
@@ -972,8 +984,7 @@ Framer::DamagedFit Framer::damaged_frame(std::size_t start, std::size_t to,
                             answer_first ? Role::request : Role::response}) {
         int likely = role == Role::response ? response_likely : request_likely;
         std::optional<std::size_t> from_quantity;
-        if (role == Role::request && spec.request_length.kind == LengthRule::Kind::counted &&
-            spec.request_length.n == 6 && request_likely == 2 && head.size() > 6 &&
+        if (role == Role::request && counts_its_data && request_likely == 2 &&
             head[6] != bytes_for(word)) {
             from_quantity = 9 + bytes_for(word);
         }
@@ -983,8 +994,15 @@ Framer::DamagedFit Framer::damaged_frame(std::size_t start, std::size_t to,
         }
         if (from_quantity) likely = std::min(likely, 1);
         // A byte count more than a bit from the quantity's, and a quantity more than a bit
-        // from any allowed one that gives the count, took two hits.
+        // from any allowed one that gives the count, took two hits. So did the asked slave's
+        // answer whose count is more than a bit from what a request that came intact asked
+        // for (or the slave answers its own way, which no valid answer of it has shown yet).
         if (from_quantity && role == Role::request && !count_a_bit_from_word()) likely = -1;
+        if (from_quantity && role == Role::response && answer_awaited &&
+            std::popcount(static_cast<unsigned>(head[2] ^ bytes_for(asked))) > 1 &&
+            check_crc(awaited->request).status == CrcStatus::ok) {
+            likely = std::min(likely, 0);
+        }
         candidates[count++] = {role, lengths.of(role), likely};
         // The quantity's length only where it ends at a boundary and nothing likelier does.
         if (from_quantity && !(role == Role::request && answer_awaited)) {
