@@ -973,6 +973,29 @@ TEST(DamagedFrameReadings, AnAnswerIsNotJudgedByTheQuantityOfARequestThatCameDam
     EXPECT_EQ(r[3].frame.reading, Reading::response);
 }
 
+TEST(DamagedFrameReadings, AnAnswerThatRepeatsTheAwaitedRequestButForABitIsLikeliest) {
+    // Slave 17's answer to a write of 50 coils, a bit of its address field hit (03A9 ->
+    // 03AD), is followed by a read whose function code took a hit (03 -> 13), its length
+    // lost. 11 0F 03 AD 00 32 06 EA 04 ... A5 also reads as a write of 50 coils whose byte
+    // count (6) is a bit from the 7 they take, and which a junk byte before the next
+    // frame would end.
+    const test::Bytes write = test::with_crc(
+        {0x11, 0x0F, 0x03, 0xA9, 0x00, 0x32, 0x07, 0xAE, 0xBE, 0xD7, 0xB7, 0x38, 0xBC, 0x44});
+    test::Bytes answer = answer_to_write(write);
+    answer[3] = 0xAD;
+    test::Bytes read = test::with_crc({0x04, 0x03, 0x00, 0x0A, 0x00, 0x05});
+    read[1] = 0x13;
+    const test::Bytes answer4 = test::with_crc(
+        {0x04, 0x03, 0x0A, 0xA8, 0x8E, 0x05, 0x7D, 0xDA, 0xD5, 0x8E, 0x33, 0x14, 0x7E});
+    Batched bus;
+    bus.chunk({kRead6, kAnswer6}).chunk({write, answer, read, answer4});
+    const auto& r = bus.run();
+    ASSERT_GE(r.size(), 5U);
+    expect_damaged(r[3], answer);
+    EXPECT_EQ(r[3].frame.reading, Reading::response);
+    EXPECT_EQ(r.back().frame.bytes, answer4);
+}
+
 // The flow meter of captures/realdata (a real line whose slave pauses a bit between
 // characters), handed over by a 16550 UART's FIFO, with a bit flipped in every third
 // frame where its function code and byte count survive: each frame one record at its

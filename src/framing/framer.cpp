@@ -867,12 +867,12 @@ Framer::DamagedFit Framer::damaged_frame(std::size_t start, std::size_t to,
     //     from it 0 (1 for a write where that allowed quantity gives its byte count),
     //     further -1, none to check 1; one answered with data sent to everyone 0;
     //   an answer: an echo or the answer to a write of several that repeats the awaited
-    //     request's first six bytes 3; awaited from this slave, or, from it or an address
-    //     one bit from it, with the byte count asked, 2; an echo or the answer to a write
-    //     of several, of the function awaited from another slave, as its word; another
-    //     answer of that function from an address one bit from the asked slave's 1 (the
-    //     address may be the byte that took the hit); from any other address, or awaited
-    //     by none, 0; with an odd count of registers, at most 0.
+    //     request's first six bytes (but for a bit at most) 3; awaited from this slave, or, from it
+    //     or an address one bit from it, with the byte count asked, 2; an echo or the answer to a
+    //     write of several, of the function awaited from another slave, as its word; another answer
+    //     of that function from an address one bit from the asked slave's 1 (the address may be the
+    //     byte that took the hit); from any other address, or awaited by none, 0; with an odd count
+    //     of registers, at most 0.
     const FunctionSpec& spec = options_.rules->function(head[0], head[1]);
     if (spec.request_length.kind == LengthRule::Kind::search) return chosen;
     const bool reads = spec.access == DataAccess::read && spec.max_quantity != 0;
@@ -944,10 +944,18 @@ Framer::DamagedFit Framer::damaged_frame(std::size_t start, std::size_t to,
                                   (head[2] == bytes_for(asked) || counted_as_before());
     const bool answer_awaited = awaited_function && awaited->slave == head[0];
     // An echo, or the answer to a write of several, that repeats the awaited request's
-    // first six bytes to the bit: 1 in 2^32 by chance.
-    const bool repeats_request = answer_awaited && !exception && spec.answer_repeats_word &&
+    // first six bytes to the bit, or to all but one (the bit that took the hit): about 1
+    // in 2^34 by chance.
+    const auto bits_from_request = [&] {
+        int bits = 0;
+        for (std::size_t i = 0; i < 6; ++i) {
+            bits += std::popcount(static_cast<unsigned>(head[i] ^ awaited->request[i]));
+        }
+        return bits;
+    };
+    const bool repeats_request = awaited_function && !exception && spec.answer_repeats_word &&
                                  head.size() >= 6 && awaited->request.size() >= 6 &&
-                                 std::ranges::equal(head.first(6), awaited->request.first(6));
+                                 bits_from_request() <= 1;
     // As far as its address and function tell.
     const int answer_likely = repeats_request                      ? 3
                               : answer_awaited || counted_as_asked ? 2
