@@ -42,6 +42,11 @@ std::uint16_t word_of(std::span<const std::uint8_t> request) {
     return static_cast<std::uint16_t>((request[4] << 8U) | request[5]);
 }
 
+// How many bits two bytes or words differ in: a bit error flips one.
+int bits_apart(unsigned a, unsigned b) {
+    return std::popcount(a ^ b);
+}
+
 // A slave, a function and the quantity asked, as the key of Framer::answer_counts_.
 std::uint32_t answer_count_key(std::uint8_t slave, std::uint8_t function, unsigned asked) {
     return (std::uint32_t{slave} << 24U) | (std::uint32_t{function} << 16U) | (asked & 0xFFFFU);
@@ -877,9 +882,19 @@ Framer::DamagedFit Framer::damaged_frame(std::size_t start, std::size_t to,
     if (spec.request_length.kind == LengthRule::Kind::search) return chosen;
     const bool reads = spec.access == DataAccess::read && spec.max_quantity != 0;
     const std::uint16_t word = head.size() < 6 ? 0 : word_of(head);
-    const auto one_bit_from_allowed = [&] {
+    const auto bytes_for = [&](unsigned items) {
+        const bool bits =
+            spec.table == DataTable::coils || spec.table == DataTable::discrete_inputs;
+        return bits ? (items + 7) / 8 : 2 * items;
+    };
+    // Whether a word one bit from the request's is allowed; with `giving_count`, one that
+    // gives the byte count the request carries (byte 6) as well.
+    const auto a_bit_from_allowed = [&](bool giving_count) {
         for (unsigned bit = 0; bit < 16; ++bit) {
-            if (spec.allows_request_word(static_cast<std::uint16_t>(word ^ (1U << bit)))) return true;
+            const auto other = static_cast<std::uint16_t>(word ^ (1U << bit));
+            if (spec.allows_request_word(other) && (!giving_count || bytes_for(other) == head[6])) {
+                return true;
+            }
         }
         return false;
     };
@@ -889,30 +904,18 @@ Framer::DamagedFit Framer::damaged_frame(std::size_t start, std::size_t to,
     const int word_likely = head.size() < 6 || spec.request_word == RequestWord::none ? 1
                             : spec.allows_request_word(word)                          ? 2
                             : disallowed_seen                                         ? 1
-                            : one_bit_from_allowed()                                  ? 0
+                            : a_bit_from_allowed(false)                               ? 0
                                                                                       : -1;
     // Nobody answers a request sent to everyone: broadcasts are writes (the serial line
     // specification, 2.1), never a function whose answer carries data.
     const bool answered_with_data =
         spec.access != DataAccess::write && spec.answer == Answer::reply;
-    const auto bytes_for = [&](unsigned items) {
-        const bool bits =
-            spec.table == DataTable::coils || spec.table == DataTable::discrete_inputs;
-        return bits ? (items + 7) / 8 : 2 * items;
-    };
     // A write of several whose byte count follows its quantity (bytes 6 on).
     const bool counts_its_data = spec.request_length.kind == LengthRule::Kind::counted &&
                                  spec.request_length.n == 6 && head.size() > 6;
     // Its quantity, a bit from one allowed that gives its byte count: the hit was there.
-    const auto quantity_a_bit_from_count = [&] {
-        for (unsigned bit = 0; bit < 16; ++bit) {
-            const auto quantity = static_cast<std::uint16_t>(word ^ (1U << bit));
-            if (spec.allows_request_word(quantity) && bytes_for(quantity) == head[6]) return true;
-        }
-        return false;
-    };
     const int request_likely = head[0] == 0 && answered_with_data ? 0
-                               : word_likely == 0 && counts_its_data && quantity_a_bit_from_count()
+                               : word_likely == 0 && counts_its_data && a_bit_from_allowed(true)
                                    ? 1
                                    : word_likely;
     const AwaitedAnswer* awaited =
@@ -931,8 +934,7 @@ Framer::DamagedFit Framer::damaged_frame(std::size_t start, std::size_t to,
     }
     // Another slave's address one bit from the awaited one's: the address may have taken
     // the hit (further, that takes more than one).
-    const bool address_one_bit_off =
-        awaited != nullptr && std::popcount(static_cast<unsigned>(awaited->slave ^ head[0])) == 1;
+    const bool address_one_bit_off = awaited != nullptr && bits_apart(awaited->slave, head[0]) == 1;
     // As many bytes as asked, or as the asked slave's last valid answer to as many gave,
     // from that slave or an address one bit from it.
     const auto counted_as_before = [&] {
@@ -949,7 +951,7 @@ Framer::DamagedFit Framer::damaged_frame(std::size_t start, std::size_t to,
     const auto bits_from_request = [&] {
         int bits = 0;
         for (std::size_t i = 0; i < 6; ++i) {
-            bits += std::popcount(static_cast<unsigned>(head[i] ^ awaited->request[i]));
+            bits += bits_apart(head[i], awaited->request[i]);
         }
         return bits;
     };
@@ -978,8 +980,7 @@ Framer::DamagedFit Framer::damaged_frame(std::size_t start, std::size_t to,
     // request's); not a write's quantity where this slave's answer to it is awaited (the
     // bytes are likelier that answer than a second write).
     const auto count_a_bit_from_word = [&] {
-        return std::popcount(static_cast<unsigned>(head[6] ^ bytes_for(word))) == 1 ||
-               quantity_a_bit_from_count();
+        return bits_apart(head[6], bytes_for(word)) == 1 || a_bit_from_allowed(true);
     };
     struct Candidate {
         Role role;
@@ -1007,7 +1008,7 @@ Framer::DamagedFit Framer::damaged_frame(std::size_t start, std::size_t to,
         // for (or the slave answers its own way, which no valid answer of it has shown yet).
         if (from_quantity && role == Role::request && !count_a_bit_from_word()) likely = -1;
         if (from_quantity && role == Role::response && answer_awaited &&
-            std::popcount(static_cast<unsigned>(head[2] ^ bytes_for(asked))) > 1 &&
+            bits_apart(head[2], bytes_for(asked)) > 1 &&
             check_crc(awaited->request).status == CrcStatus::ok) {
             likely = std::min(likely, 0);
         }
@@ -1396,10 +1397,9 @@ void Framer::remember_request_word(const Frame& request) {
     if (head.size() < 8 || spec.request_word == RequestWord::none) return;
     // Bytes that read as well as an answer with a byte count (an answer of 3 bytes of coils
     // is as long as a request) show no word: the transaction may have been that answer.
-    const FrameLength as_answer = options_.rules->frame_lengths(head).response;
-    if (!spec.answer_repeats_word && as_answer.kind == FrameLength::Kind::fixed &&
-        as_answer.bytes == head.size()) {
-        return;
+    if (!spec.answer_repeats_word) {
+        const FrameLength as_answer = options_.rules->frame_lengths(head).response;
+        if (as_answer.kind == FrameLength::Kind::fixed && as_answer.bytes == head.size()) return;
     }
     if (!spec.allows_request_word(word_of(head))) disallowed_words_seen_.set(slave_function(head));
 }
